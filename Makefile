@@ -1,0 +1,46 @@
+# Two set-up commands: `make repro` and `make test`. Both create .venv when it is missing.
+PYTHON ?= python3
+VENV ?= .venv
+# The CPU wheel of torch lies on this machine kind's disk; a bare `torch` pulls a multi-GB CUDA build.
+TORCH_SPEC ?= torch==2.13.0
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+export DVC_NO_ANALYTICS := 1
+
+.PHONY: install repro test test-fast bench params lint clean-venv
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet "$(TORCH_SPEC)"
+	$(PY) -m pip install --quiet -e ".[dev]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline.
+repro: install
+	$(PY) -m toolpath.config
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/dvc repro
+
+## The whole test suite (unit, config, stage and one end-to-end pipeline test).
+test: install
+	$(VENV)/bin/pytest
+
+test-fast: install
+	$(VENV)/bin/pytest -m "not slow"
+
+## Benchmarks (speed and memory figures live here, never in tests): writes reports/bench/*.json.
+bench: install
+	$(PY) -m toolpath.bench
+
+params: install
+	$(PY) -m toolpath.config
+
+lint: install
+	$(VENV)/bin/ruff check src tests
+
+clean-venv:
+	rm -rf $(VENV)

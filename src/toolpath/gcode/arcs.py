@@ -1,0 +1,74 @@
+"""Circular and helical arcs (G2/G3 in the XY plane) discretised within a chord tolerance."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool,
+                       tolerance: float) -> np.ndarray:
+    """Centre of the arc given in R form (RS-274: R < 0 selects the arc longer than 180 degrees).
+
+    Raises
+    ------
+    ValueError
+        When start and end coincide (R cannot define a full circle) or lie further apart than
+        the diameter by more than ``tolerance``.
+    """
+    chord = end[:2] - start[:2]
+    d = float(np.hypot(*chord))
+    if d == 0.0:
+        raise ValueError("an R arc cannot start and end at the same point (use I/J for a full circle)")
+    r = abs(radius)
+    if d > 2.0 * r + tolerance:
+        raise ValueError(f"R arc radius {r:.6g} mm is shorter than half the chord {d / 2:.6g} mm")
+    h = math.sqrt(max(r * r - d * d / 4.0, 0.0))
+    left = np.array([-chord[1], chord[0]]) / d
+    # Minor arc: centre left of the chord for counter-clockwise, right for clockwise.
+    side = -1.0 if clockwise else 1.0
+    if radius < 0:
+        side = -side
+    return (start[:2] + end[:2]) / 2.0 + side * h * left
+
+
+def discretise_arc(start: np.ndarray, end: np.ndarray, centre: np.ndarray, clockwise: bool,
+                   chord_tolerance: float, turns: int = 1) -> np.ndarray:
+    """Points along an XY arc from ``start`` to ``end`` (exclusive of start, inclusive of end).
+
+    The angular step keeps the sagitta of every chord within ``chord_tolerance``:
+    ``step = 2 acos(1 - tol / r)``.  When the end radius differs slightly from the start radius
+    (CAM rounding) the radius is blended linearly so the last point is exactly ``end``; Z moves
+    linearly with the angle (helix).  ``start == end`` in XY is a full circle.  ``turns`` > 1 adds
+    whole revolutions (LinuxCNC's P word).
+
+    Returns
+    -------
+    ndarray of shape (k, 3)
+    """
+    a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
+    a1 = math.atan2(end[1] - centre[1], end[0] - centre[0])
+    r0 = math.hypot(start[0] - centre[0], start[1] - centre[1])
+    r1 = math.hypot(end[0] - centre[0], end[1] - centre[1])
+    sweep = (a0 - a1) % TWO_PI if clockwise else (a1 - a0) % TWO_PI
+    if sweep < 1e-12:
+        sweep = TWO_PI  # same start and end: a full circle
+    sweep += TWO_PI * (max(turns, 1) - 1)
+    r_max = max(r0, r1)
+    if r_max <= chord_tolerance:
+        step = math.pi / 2
+    else:
+        step = 2.0 * math.acos(1.0 - chord_tolerance / r_max)
+    count = max(1, math.ceil(sweep / step))
+    t = np.arange(1, count + 1) / count
+    angle = a0 + (-sweep if clockwise else sweep) * t
+    radius = r0 + (r1 - r0) * t
+    pts = np.empty((count, 3))
+    pts[:, 0] = centre[0] + radius * np.cos(angle)
+    pts[:, 1] = centre[1] + radius * np.sin(angle)
+    pts[:, 2] = start[2] + (end[2] - start[2]) * t
+    pts[-1] = end  # exact end point: no drift into the next block
+    return pts

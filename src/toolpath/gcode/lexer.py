@@ -1,0 +1,104 @@
+"""Split one RS-274 line into words.  Used by :mod:`toolpath.gcode.reader`.
+
+Handles what CAM systems really write: compact words (``G1X1.5Y-2``), lowercase, zero-padded
+numbers (``G01``), spaces between a letter and its number, ``( )`` and ``;`` comments (also after
+words), ``%`` delimiters and block delete ``/``.  Features the reader does not implement are
+rejected here with a :class:`GCodeError` rather than skipped.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from toolpath.gcode.errors import GCodeError
+
+# A word is a letter and a real number; LinuxCNC also allows blanks between sign and digits.
+_NUMBER = re.compile(r"\s*([+-]?)\s*(\d+\.?\d*|\.\d+)")
+_KNOWN_LETTERS = set("GMNFSTHDXYZIJKRPQL")
+_UNSUPPORTED_AXES = set("ABCUVWE")
+
+
+@dataclass(frozen=True, slots=True)
+class Word:
+    """One ``letter value`` pair; ``text`` keeps the number as written (``"01"``, ``"-.5"``)."""
+
+    letter: str
+    text: str
+    value: float
+
+
+@dataclass(frozen=True, slots=True)
+class Block:
+    """The words of one line, plus whether it is a ``%`` delimiter or block-deleted."""
+
+    words: tuple[Word, ...]
+    percent: bool = False
+    block_delete: bool = False
+
+
+def _strip_comments(body: str, source: str, lineno: int) -> str:
+    """Remove ``( )`` comments and everything after ``;``; an unclosed ``(`` is an error."""
+    out: list[str] = []
+    i = 0
+    while i < len(body):
+        ch = body[i]
+        if ch == ";":
+            break
+        if ch == "(":
+            close = body.find(")", i + 1)
+            if close < 0:
+                raise GCodeError(source, lineno, "comment opened with '(' is never closed")
+            out.append(" ")  # a comment separates words like a blank does
+            i = close + 1
+            continue
+        if ch == ")":
+            raise GCodeError(source, lineno, "')' without a matching '('")
+        out.append(ch)
+        i += 1
+    return "".join(out)
+
+
+def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
+    """Split one line (without its line ending) into a :class:`Block`.
+
+    Raises
+    ------
+    GCodeError
+        For malformed words and for features the reader does not support: ``#`` parameters,
+        ``[ ]`` expressions, O-word control flow, rotary or extruder axes.
+    """
+    stripped = line.strip()
+    if stripped.startswith("%"):
+        return Block(words=(), percent=True)
+    deleted = stripped.startswith("/")
+    body = _strip_comments(stripped[1:] if deleted else stripped, source, lineno)
+    words: list[Word] = []
+    i, n = 0, len(body)
+    while i < n:
+        ch = body[i]
+        if ch.isspace():
+            i += 1
+            continue
+        if ch == "#":
+            raise GCodeError(source, lineno, "'#' parameters and expressions are not supported")
+        if ch in "[]":
+            raise GCodeError(source, lineno, "'[ ]' expressions are not supported")
+        upper = ch.upper()
+        if upper == "O":
+            raise GCodeError(source, lineno, "O-word control flow (subroutines, loops) is not supported")
+        if not ch.isalpha():
+            raise GCodeError(source, lineno, f"unexpected character {ch!r}")
+        if upper in _UNSUPPORTED_AXES:
+            raise GCodeError(source, lineno, f"axis word {upper} is not supported (XYZ milling only)")
+        if upper not in _KNOWN_LETTERS:
+            raise GCodeError(source, lineno, f"unknown word letter {upper!r}")
+        match = _NUMBER.match(body, i + 1)
+        if match is None:
+            if body[i + 1 : i + 2] == "#":
+                raise GCodeError(source, lineno, "'#' parameters and expressions are not supported")
+            raise GCodeError(source, lineno, f"word {upper} has no number")
+        text = match.group(1) + match.group(2)
+        words.append(Word(upper, text, float(text)))
+        i = match.end()
+    return Block(words=tuple(words), block_delete=deleted)

@@ -1,0 +1,314 @@
+"""Read RS-274 milling G-code into tool positions.  Run: python -m toolpath.gcode FILE...
+
+Supported: G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices, P turns),
+G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
+and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
+block delete ``/``, CRLF and tabs.  Work offsets (G54-G59), tool length offsets (G43/G49) and
+path-control modes (G61/G64) are accepted and do not move the XY path.
+
+Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, ``#`` parameters, O-words,
+NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G28/G30/G53
+and every malformed word.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from pathlib import Path
+
+import numpy as np
+
+from toolpath.gcode.arcs import centre_from_radius, discretise_arc
+from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.lexer import Block, Word, tokenize
+
+MM_PER_INCH = 25.4
+
+
+class Motion(IntEnum):
+    """Motion kind of the move that arrives at a point."""
+
+    RAPID = 0
+    FEED = 1
+    ARC = 2
+
+
+@dataclass(frozen=True)
+class ReaderOptions:
+    """How to read; every field is in ``conf/gcode/``.
+
+    chord_tolerance : max sagitta (mm) of the chords that replace an arc.
+    arc_radius_tolerance : how far (mm) an arc's end may lie off its circle before it is an error;
+        within it the radius is blended (CAM output rounds arc end points).
+    initial_motion : motion mode before any G word (0 = rapid, as Grbl and TinyG power up).
+    block_delete : True honours ``/`` (skips those lines), as with the switch on.
+    """
+
+    chord_tolerance: float = 0.001
+    arc_radius_tolerance: float = 0.01
+    initial_motion: int = 0
+    block_delete: bool = False
+
+
+@dataclass
+class LineState:
+    """Modal state after one line, for the writer to replace motion faithfully."""
+
+    motion: int | None
+    absolute: bool
+    inch: bool
+    position: tuple[float, float, float]
+    offset: tuple[float, float, float]
+    feed: float | None
+
+
+@dataclass
+class Program:
+    """A read program: its raw lines and the tool positions its motion reaches.
+
+    ``points`` (n, 3) are in mm in the frame of the program's start (G92 shifts applied);
+    ``kinds`` holds :class:`Motion` values; ``lines_of_points`` the 1-based source line of each.
+    ``states[k]`` is the modal state after line ``k`` (``states[0]``: before the first line).
+    """
+
+    source: str
+    lines: list[str]
+    points: np.ndarray
+    kinds: np.ndarray
+    lines_of_points: np.ndarray
+    units: str
+    states: list[LineState] = field(repr=False)
+
+    @property
+    def feed_mask(self) -> np.ndarray:
+        """True where a point is reached by cutting motion (G1, G2, G3)."""
+        return self.kinds != Motion.RAPID
+
+
+_MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
+_ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
+_REJECTED_G = {
+    5: "splines (G5.x) are not supported", 6: "NURBS (G6.2) is not supported",
+    18: "only the XY plane (G17) is supported, not G18", 19: "only the XY plane (G17) is supported, not G19",
+    28: "G28 (return home) is not supported", 30: "G30 (return to position) is not supported",
+    41: "cutter compensation (G41) is not supported", 42: "cutter compensation (G42) is not supported",
+    53: "machine coordinates (G53) are not supported",
+}
+_CANNED = set(range(73, 90)) - {80}
+_UNSUPPORTED_M = {98: "subprogram calls (M98) are not supported", 99: "M99 (subprogram return) is not supported"}
+
+
+def split_lines(text: str) -> list[str]:
+    """Split text into lines that keep their own endings (LF or CRLF), nothing else touched."""
+    parts = text.split("\n")
+    lines = [p + "\n" for p in parts[:-1]]
+    if parts[-1]:
+        lines.append(parts[-1])
+    return lines
+
+
+class _Interpreter:
+    """Modal state machine over the blocks of one program."""
+
+    def __init__(self, source: str, options: ReaderOptions) -> None:
+        self.src = source
+        self.opt = options
+        self.motion: int | None = options.initial_motion
+        self.absolute = True
+        self.arc_absolute = False
+        self.inch = False
+        self.units_seen: set[str] = set()
+        self.pos = np.zeros(3)
+        self.offset = np.zeros(3)
+        self.feed: float | None = None
+        self.ended = False
+        self.points: list[np.ndarray] = []
+        self.kinds: list[int] = []
+        self.point_lines: list[int] = []
+
+    def state(self) -> LineState:
+        return LineState(self.motion, self.absolute, self.inch, tuple(self.pos), tuple(self.offset), self.feed)
+
+    def fail(self, lineno: int, message: str) -> GCodeError:
+        return GCodeError(self.src, lineno, message)
+
+    def _g_codes(self, words: list[Word], lineno: int) -> tuple[int | None, list[float]]:
+        motion, others = None, []
+        for w in words:
+            if w.letter != "G":
+                continue
+            code = round(w.value, 1)
+            major = int(code)
+            if code == major and major in _MOTION:
+                if motion is not None:
+                    raise self.fail(lineno, "two motion G words on one line")
+                motion = major
+            elif major in _REJECTED_G:
+                raise self.fail(lineno, _REJECTED_G[major])
+            elif code == major and major in _CANNED:
+                raise self.fail(lineno, f"canned cycle G{major} is not supported")
+            elif code in (20, 21, 90, 91, 90.1, 91.1, 92, 92.1, 92.2, 92.3) or (
+                code == major and major in _ACCEPTED_G
+            ):
+                others.append(code)
+            else:
+                raise self.fail(lineno, f"G{w.text} is not supported")
+        return motion, others
+
+    def run_block(self, block: Block, lineno: int) -> None:
+        if block.percent or self.ended or (block.block_delete and self.opt.block_delete):
+            return
+        seen: set[str] = set()
+        for w in block.words:
+            if w.letter in seen and w.letter not in "GM":
+                raise self.fail(lineno, f"word {w.letter} appears twice on one line")
+            seen.add(w.letter)
+        words = list(block.words)
+        values = {w.letter: w.value for w in words if w.letter not in "GM"}
+        motion, others = self._g_codes(words, lineno)
+        for w in words:
+            if w.letter == "M":
+                code = int(w.value)
+                if code in _UNSUPPORTED_M:
+                    raise self.fail(lineno, _UNSUPPORTED_M[code])
+                if code in (2, 30):
+                    self.ended = True
+        # Modal settings take effect before the motion on the same line (RS-274 order of execution).
+        for code in others:
+            if code == 20:
+                self.inch = True
+                self.units_seen.add("inch")
+            elif code == 21:
+                self.inch = False
+                self.units_seen.add("mm")
+            elif code == 90:
+                self.absolute = True
+            elif code == 91:
+                self.absolute = False
+            elif code == 90.1:
+                self.arc_absolute = True
+            elif code == 91.1:
+                self.arc_absolute = False
+            elif code == 80:
+                self.motion = None
+        if "F" in values:
+            self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
+        if 92 in others or 92.1 in others or 92.2 in others:
+            self._set_offset(others, values)
+            return
+        if motion is not None:
+            self.motion = motion
+        axes = [a for a in "XYZ" if a in values]
+        if not axes:
+            if motion in (2, 3) and not self.ended:
+                raise self.fail(lineno, f"G{motion} without an end point")
+            return
+        if self.motion is None:
+            raise self.fail(lineno, "axis words with no motion mode in effect (after G80)")
+        self._move(values, lineno)
+
+    def _set_offset(self, others: list[float], values: dict[str, float]) -> None:
+        if 92 in others:
+            scale = MM_PER_INCH if self.inch else 1.0
+            for i, a in enumerate("XYZ"):
+                if a in values:  # program coordinate of the current point becomes the given value
+                    self.offset[i] = self.pos[i] - values[a] * scale
+        else:
+            self.offset[:] = 0.0
+
+    def _target(self, values: dict[str, float]) -> np.ndarray:
+        scale = MM_PER_INCH if self.inch else 1.0
+        target = self.pos.copy()
+        for i, a in enumerate("XYZ"):
+            if a in values:
+                v = values[a] * scale
+                target[i] = v + self.offset[i] if self.absolute else self.pos[i] + v
+        return target
+
+    def _move(self, values: dict[str, float], lineno: int) -> None:
+        target = self._target(values)
+        if self.motion in (0, 1):
+            kind = Motion.RAPID if self.motion == 0 else Motion.FEED
+            self._emit(target[None, :], kind, lineno)
+        else:
+            self._arc(target, values, lineno)
+        self.pos = target
+
+    def _arc(self, target: np.ndarray, values: dict[str, float], lineno: int) -> None:
+        clockwise = self.motion == 2
+        scale = MM_PER_INCH if self.inch else 1.0
+        if "R" in values:
+            if "I" in values or "J" in values:
+                raise self.fail(lineno, "an arc takes either R or I/J, not both")
+            try:
+                centre = centre_from_radius(self.pos, target, values["R"] * scale, clockwise,
+                                            self.opt.arc_radius_tolerance)
+            except ValueError as exc:
+                raise self.fail(lineno, str(exc)) from None
+        else:
+            if "K" in values and "I" not in values and "J" not in values:
+                raise self.fail(lineno, "K is an arc centre word of G18/G19, not supported")
+            if "I" not in values and "J" not in values:
+                raise self.fail(lineno, f"G{self.motion} needs I/J or R")
+            ij = np.array([values.get("I", 0.0), values.get("J", 0.0)]) * scale
+            centre = ij + self.offset[:2] if self.arc_absolute else self.pos[:2] + ij
+            r0 = float(np.hypot(*(self.pos[:2] - centre)))
+            r1 = float(np.hypot(*(target[:2] - centre)))
+            if abs(r1 - r0) > self.opt.arc_radius_tolerance + 1e-3 * r0:
+                raise self.fail(lineno, f"arc end point is {abs(r1 - r0):.4g} mm off the arc's circle "
+                                        f"(radius {r0:.6g} at the start, {r1:.6g} at the end)")
+            if r0 == 0.0:
+                raise self.fail(lineno, "arc centre coincides with its start point")
+        turns = int(values.get("P", 1))
+        pts = discretise_arc(self.pos, target, centre, clockwise, self.opt.chord_tolerance, turns)
+        self._emit(pts, Motion.ARC, lineno)
+
+    def _emit(self, pts: np.ndarray, kind: Motion, lineno: int) -> None:
+        self.points.extend(pts)
+        self.kinds.extend([int(kind)] * len(pts))
+        self.point_lines.extend([lineno] * len(pts))
+
+
+def read_text(text: str, source: str = "<string>", options: ReaderOptions | None = None) -> Program:
+    """Interpret G-code text; see the module docstring for the dialect.
+
+    Raises
+    ------
+    GCodeError
+        Naming ``source:line`` for malformed input and unsupported features.
+    """
+    interp = _Interpreter(source, options or ReaderOptions())
+    lines = split_lines(text)
+    states = [interp.state()]
+    for lineno, raw in enumerate(lines, start=1):
+        block = tokenize(raw.rstrip("\r\n"), source, lineno)
+        interp.run_block(block, lineno)
+        states.append(interp.state())
+    pts = np.array(interp.points, dtype=float).reshape(-1, 3)
+    units = {frozenset(): "mm (no unit word)", frozenset({"mm"}): "mm", frozenset({"inch"}): "inch"}
+    return Program(
+        source=source,
+        lines=lines,
+        points=pts,
+        kinds=np.array(interp.kinds, dtype=np.int8),
+        lines_of_points=np.array(interp.point_lines, dtype=np.int32),
+        units=units.get(frozenset(interp.units_seen), "mixed inch/mm"),
+        states=states,
+    )
+
+
+def read_file(path: str | Path, options: ReaderOptions | None = None) -> Program:
+    """Read a G-code file; bytes that are not UTF-8 are kept (surrogate-escaped), never dropped.
+
+    Raises
+    ------
+    GCodeError
+        For unreadable files (line 0) and for any problem inside them.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise GCodeError(str(path), 0, f"cannot read file: {exc.strerror}") from None
+    return read_text(data.decode("utf-8", errors="surrogateescape"), str(path), options)

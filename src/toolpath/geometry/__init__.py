@@ -1,0 +1,17 @@
+"""Vectorised path geometry (batches of shape (..., n, 2)): Eq. 1-3 and 8-10, deviation."""
+
+from toolpath.geometry.curvature import (
+    arc_length,
+    drop_repeated,
+    fitness,
+    local_curvature,
+    segment_vectors,
+    smoothness_penalty,
+    turning_cosines,
+)
+from toolpath.geometry.deviation import max_deviation, point_to_polyline
+
+__all__ = [
+    "arc_length", "drop_repeated", "fitness", "local_curvature", "max_deviation",
+    "point_to_polyline", "segment_vectors", "smoothness_penalty", "turning_cosines",
+]
