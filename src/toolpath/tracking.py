@@ -42,10 +42,12 @@ def pipeline_key() -> str:
 
 
 def _parent_run_id(client: Any, experiment_id: str, key: str) -> str:
-    found = client.search_runs([experiment_id], filter_string=f"tags.pipeline_key = '{key}'", max_results=1)
+    query = f"tags.pipeline_key = '{key}' and tags.pipeline_role = 'parent'"
+    found = client.search_runs([experiment_id], filter_string=query, max_results=1)
     if found:
         return found[0].info.run_id
-    run = client.create_run(experiment_id, run_name=key, tags={"pipeline_key": key, "git_commit": git_commit()})
+    tags = {"pipeline_key": key, "pipeline_role": "parent", "git_commit": git_commit()}
+    run = client.create_run(experiment_id, run_name=key, tags=tags)
     client.set_terminated(run.info.run_id)
     return run.info.run_id
 

@@ -58,10 +58,8 @@ def discretise_arc(start: np.ndarray, end: np.ndarray, centre: np.ndarray, clock
         sweep = TWO_PI  # same start and end: a full circle
     sweep += TWO_PI * (max(turns, 1) - 1)
     r_max = max(r0, r1)
-    if r_max <= chord_tolerance:
-        step = math.pi / 2
-    else:
-        step = 2.0 * math.acos(1.0 - chord_tolerance / r_max)
+    # a circle no larger than the tolerance still gets a few points
+    step = math.pi / 2 if r_max <= chord_tolerance else 2.0 * math.acos(1.0 - chord_tolerance / r_max)
     count = max(1, math.ceil(sweep / step))
     t = np.arange(1, count + 1) / count
     angle = a0 + (-sweep if clockwise else sweep) * t

@@ -95,8 +95,11 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
             raise GCodeError(source, lineno, f"unknown word letter {upper!r}")
         match = _NUMBER.match(body, i + 1)
         if match is None:
-            if body[i + 1 : i + 2] == "#":
+            following = body[i + 1 : i + 2]
+            if following == "#":
                 raise GCodeError(source, lineno, "'#' parameters and expressions are not supported")
+            if following == "[":
+                raise GCodeError(source, lineno, "'[ ]' expressions are not supported")
             raise GCodeError(source, lineno, f"word {upper} has no number")
         text = match.group(1) + match.group(2)
         words.append(Word(upper, text, float(text)))

@@ -64,8 +64,9 @@ def discretise(contour: np.ndarray, chord_tolerance: float, max_segment: float) 
     seg = np.diff(simplified, axis=0)
     pieces = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / max_segment).astype(int))
     out = [simplified[:1]]
-    for start, vec, k in zip(simplified[:-1], seg, pieces, strict=True):
-        out.append(start + vec * (np.arange(1, k + 1)[:, None] / k))
+    for start, end, k in zip(simplified[:-1], simplified[1:], pieces, strict=True):
+        t = np.arange(1, k + 1)[:, None] / k
+        out.append(start * (1.0 - t) + end * t)  # t = 1 gives `end` exactly: the contour stays closed
     return np.concatenate(out)
 
 

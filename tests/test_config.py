@@ -1,0 +1,62 @@
+"""conf/ is the one source of truth: params.yaml is its composition, dvc.yaml reads existing keys."""
+
+import re
+
+import pytest
+import yaml
+from omegaconf import OmegaConf
+
+from conftest import REPO
+from toolpath import config
+
+
+def test_params_yaml_is_the_composition_of_conf(tmp_path):
+    out = config.compose([], root=REPO, output=tmp_path / "params.yaml")
+    committed = (REPO / "params.yaml").read_bytes()
+    assert out.read_bytes() == committed, "params.yaml drifted from conf/: run `python -m toolpath.config`"
+
+
+@pytest.mark.parametrize("experiment", sorted(p.stem for p in (REPO / "conf" / "experiment").glob("*.yaml")))
+def test_every_experiment_composes(tmp_path, experiment):
+    cfg = OmegaConf.load(config.compose([f"+experiment={experiment}"], root=REPO, output=tmp_path / "p.yaml"))
+    assert cfg.profile == experiment
+    for shape in cfg.shapes:
+        assert cfg.generate[shape].programs >= 1
+
+
+def _params_keys(stage: dict, shape: str) -> list[str]:
+    keys = []
+    for entry in stage.get("params", []):
+        keys.extend(entry if isinstance(entry, dict) else [entry])
+    return [k.replace("${item.shape}", shape) for k in keys]
+
+
+def test_every_dvc_params_key_exists():
+    params = OmegaConf.load(REPO / "params.yaml")
+    stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
+    assert set(stages) >= {"generate", "label"}
+    for name, stage in stages.items():
+        for shape in params.shapes:
+            for key in _params_keys(stage, shape):
+                assert OmegaConf.select(params, key) is not None, f"{name}: params key {key} missing"
+
+
+def test_stage_names_match_modules():
+    stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
+    for name, stage in stages.items():
+        assert f"toolpath.stages.{name} " in stage["cmd"]
+        assert (REPO / "src" / "toolpath" / "stages" / f"{name}.py").is_file()
+
+
+def test_conf_avoids_constructs_that_break_dvc_composition():
+    for path in (REPO / "conf").rglob("*.yaml"):
+        text = path.read_text()
+        assert "${hydra:" not in text and "${oc.env:" not in text, path
+        assert not re.search(r"^hydra:", text, re.M), path
+        assert "???" not in text, path
+
+
+def test_seed_for_is_stable_and_distinct():
+    assert config.seed_for(1, "generate", "gear") == config.seed_for(1, "generate", "gear")
+    assert config.seed_for(1, "generate", "gear") != config.seed_for(1, "generate", "pentagram")
+    assert config.seed_for(1, "label", "gear") != config.seed_for(2, "label", "gear")

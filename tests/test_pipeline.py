@@ -1,0 +1,48 @@
+"""End to end: a fresh copy of the repository, `dvc repro` on the smoke profile, `dvc metrics show`."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO
+from toolpath import config
+
+pytestmark = pytest.mark.slow
+
+
+def run(cmd, cwd, env):
+    done = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, f"{' '.join(cmd)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    return done.stdout
+
+
+def test_dvc_repro_on_smoke_profile(tmp_path):
+    tracked = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True).stdout
+    work = tmp_path / "repo"
+    for rel in tracked.splitlines():
+        if rel.startswith(("data/", "reports/")) or rel == "dvc.lock":
+            continue  # outputs are what the run must produce
+        (work / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(REPO / rel, work / rel)
+    venv_bin = str(Path(sys.executable).parent)
+    env = {**os.environ, "PATH": venv_bin + os.pathsep + os.environ["PATH"], "DVC_NO_ANALYTICS": "1",
+           "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db",
+           "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
+    run(["git", "init", "-q"], work, env)
+    config.compose(["+experiment=smoke"], root=work)
+    run(["git", "add", "-A"], work, env)
+    run(["git", "commit", "-qm", "smoke"], work, env)
+    dvc = [venv_bin + "/dvc"]
+    run(dvc + ["repro"], work, env)
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        assert (work / f"data/windows/{shape}.npz").is_file()
+        metrics = json.loads((work / f"reports/metrics/label/{shape}.json").read_text())
+        assert metrics["windows"] > 0
+    shown = run(dvc + ["metrics", "show"], work, env)
+    assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
+    assert "up to date" in run(dvc + ["repro"], work, env)
