@@ -1,0 +1,71 @@
+"""A scikit-learn classifier around any torch network of the registry.
+
+``TorchClassifier(network={"_target_": "toolpath.models.MCRL", ...})``: ``fit`` builds a fresh
+network from that config with a seeded initialisation and trains it; ``predict_proba`` is the
+softmax of its logits.  Labels are the Table 1 categories 1-4 (``classes_``), so scikit-learn's
+metrics work unchanged on every model, the exact rule included.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import torch
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.utils.class_weight import compute_class_weight
+
+from toolpath.models.registry import build
+from toolpath.models.rule import CLASSES, as_windows
+from toolpath.training.loop import TrainSettings, fit_network, predict_logits
+
+
+class TorchClassifier(ClassifierMixin, BaseEstimator):
+    """Fit / predict / predict_proba around a network config (``_target_`` and its arguments).
+
+    Parameters
+    ----------
+    network : mapping with ``_target_`` (a class of :mod:`toolpath.models`) and constructor args.
+    settings : mapping of :class:`~toolpath.training.TrainSettings` fields.
+    class_weight : ``None`` or ``"balanced"`` (inverse class frequency in the training labels).
+    """
+
+    def __init__(self, network: Mapping[str, Any] | None = None, settings: Mapping[str, Any] | None = None,
+                 class_weight: str | None = None) -> None:
+        self.network = network
+        self.settings = settings
+        self.class_weight = class_weight
+
+    def _settings(self) -> TrainSettings:
+        return TrainSettings(**dict(self.settings or {}))
+
+    def fit(self, X, y, X_val=None, y_val=None, on_epoch=None):
+        X = as_windows(X).astype(np.float32)
+        index = np.searchsorted(CLASSES, np.asarray(y))
+        settings = self._settings()
+        torch.manual_seed(settings.seed)  # the network's initial weights
+        self.network_ = build(dict(self.network or {"_target_": "toolpath.models.MCRL"}))
+        weight = None
+        if self.class_weight == "balanced":
+            present = np.unique(index)
+            weight = np.ones(len(CLASSES))
+            weight[present] = compute_class_weight("balanced", classes=present, y=index)
+        val = (as_windows(X_val).astype(np.float32), np.searchsorted(CLASSES, np.asarray(y_val))) \
+            if X_val is not None else (None, None)
+        self.history_ = fit_network(self.network_, X, index, settings, *val, class_weight=weight, on_epoch=on_epoch)
+        self.classes_ = CLASSES.copy()
+        return self
+
+    def decision_function(self, X) -> np.ndarray:
+        """Logits, (N, 4)."""
+        X = torch.as_tensor(as_windows(X), dtype=torch.float32)
+        return predict_logits(self.network_, X).numpy().astype(np.float64)
+
+    def predict_proba(self, X) -> np.ndarray:
+        logits = self.decision_function(X)
+        e = np.exp(logits - logits.max(axis=1, keepdims=True))
+        return e / e.sum(axis=1, keepdims=True)
+
+    def predict(self, X) -> np.ndarray:
+        return self.classes_[self.decision_function(X).argmax(axis=1)]

@@ -1,0 +1,102 @@
+"""MCRL: MLP, CNN, RNN and LSTM branches with ReLU linear attention (Li et al. 2024, Sec. 5.1.1).
+
+The text fixes the branch structure; the choices it leaves open are made here:
+
+* Each branch starts with its own ``Linear(2, 2)`` on the coordinates, then resamples the window
+  to 50 / 30 / 20 / 10 points by linear interpolation along the sequence (the text's
+  "downsamples"; interpolation keeps the window's ends), then a ReLU linear attention whose
+  output keeps 2 channels (so branch 1 flattens to 100, as the text says), with a residual.
+* "Fused with" the previous branch: that branch's last hidden vector (MLP 16, CNN 512, RNN 64) is
+  broadcast along the sequence and concatenated as channels, as the issue specifies for branch 2,
+  and done the same way for branches 3 and 4.
+* The "3x3 convolution" on a sequence is a Conv1d with kernel 3, padding 1 (30 -> 30 -> pool 15).
+  ReLU is applied functionally after the Conv1d (inductor's INT8 fusion mis-sizes Conv1d followed
+  by an ``nn.ReLU`` module in torch 2.13 + torchao 0.18).
+* The RNN / LSTM layers are separate single-layer modules (hidden sizes differ); tanh is their own
+  activation; the last time step of the third layer feeds the head.
+* Each branch ends in a 4-logit head (the text's softmax is folded into the cross-entropy); the
+  four heads are concatenated and fused by ``Linear(16, 4)``.  :meth:`MCRL.branch_logits` exposes
+  the heads for the optional auxiliary losses (config ``aux_loss_weight``, 0 by default).
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from torch import Tensor, nn
+
+from toolpath.models.attention import ReLULinearAttention
+from toolpath.models.inputs import Prepare
+
+
+class _Branch(nn.Module):
+    """Linear transformation, resampling to ``points``, ReLU linear attention."""
+
+    def __init__(self, points: int, attention_width: int) -> None:
+        super().__init__()
+        self.points = points
+        self.linear = nn.Linear(2, 2)
+        self.attention = ReLULinearAttention(2, attention_width)
+
+    def forward(self, x: Tensor) -> Tensor:
+        y = self.linear(x)
+        if y.shape[1] != self.points:
+            y = F.interpolate(y.transpose(1, 2), size=self.points, mode="linear", align_corners=True)
+            y = y.transpose(1, 2)
+        return self.attention(y)
+
+
+def _fuse(seq: Tensor, context: Tensor) -> Tensor:
+    """Concatenate a (B, C) context to every step of a (B, L, D) sequence -> (B, L, D + C)."""
+    return torch.cat([seq, context[:, None, :].expand(-1, seq.shape[1], -1)], dim=2)
+
+
+class MCRL(nn.Module):
+    """Input (B, 50, 2) float32 windows, output (B, 4) logits."""
+
+    def __init__(self, attention_width: int = 16, mlp_hidden: tuple[int, ...] = (128, 64, 32, 16),
+                 conv_channels: int = 32, cnn_hidden: int = 512, rnn_hidden: tuple[int, ...] = (128, 64, 64),
+                 lstm_hidden: tuple[int, ...] = (64, 32, 32), dropout: float = 0.2, window: int = 50,
+                 points: tuple[int, int, int, int] = (50, 30, 20, 10), classes: int = 4) -> None:
+        super().__init__()
+        self.prepare = Prepare()
+        self.branches = nn.ModuleList(_Branch(p, attention_width) for p in points)
+        dims = [points[0] * 2, *mlp_hidden]
+        self.mlp = nn.Sequential(*[m for a, b in zip(dims[:-1], dims[1:], strict=True)
+                                   for m in (nn.Linear(a, b), nn.ReLU())])
+        self.conv = nn.Conv1d(2 + mlp_hidden[-1], conv_channels, kernel_size=3, padding=1)
+        self.pool = nn.MaxPool1d(2)
+        self.dropout = nn.Dropout(dropout)
+        self.cnn_fc = nn.Linear(conv_channels * (points[1] // 2), cnn_hidden)
+        rnn_in = [2 + cnn_hidden, *rnn_hidden[:-1]]
+        self.rnns = nn.ModuleList(nn.RNN(a, b, batch_first=True) for a, b in zip(rnn_in, rnn_hidden, strict=True))
+        lstm_in = [2 + rnn_hidden[-1], *lstm_hidden[:-1]]
+        self.lstms = nn.ModuleList(nn.LSTM(a, b, batch_first=True) for a, b in zip(lstm_in, lstm_hidden, strict=True))
+        self.heads = nn.ModuleList(nn.Linear(d, classes) for d in (mlp_hidden[-1], cnn_hidden, rnn_hidden[-1],
+                                                                    lstm_hidden[-1]))
+        self.fusion = nn.Linear(4 * classes, classes)
+
+    def features(self, x: Tensor) -> list[Tensor]:
+        """The last hidden vector of each branch: MLP (B, 16), CNN (B, 512), RNN (B, 64), LSTM (B, 32)."""
+        x = self.prepare(x)
+        b1, b2, b3, b4 = (branch(x) for branch in self.branches)
+        h1 = self.mlp(b1.flatten(1))
+        c = F.relu(self.conv(_fuse(b2, h1).transpose(1, 2)))
+        c = self.dropout(self.pool(c))  # (B, 32, 15)
+        h2 = F.relu(self.cnn_fc(c.flatten(1)))  # 480 -> 512
+        r = _fuse(b3, h2)
+        for rnn in self.rnns:
+            r, _ = rnn(r)
+        h3 = r[:, -1]
+        s = _fuse(b4, h3)
+        for lstm in self.lstms:
+            s, _ = lstm(s)
+        h4 = s[:, -1]
+        return [h1, h2, h3, h4]
+
+    def branch_logits(self, x: Tensor) -> list[Tensor]:
+        """The four branch heads' logits (for the optional auxiliary losses)."""
+        return [head(h) for head, h in zip(self.heads, self.features(x), strict=True)]
+
+    def forward(self, x: Tensor) -> Tensor:
+        return self.fusion(torch.cat(self.branch_logits(x), dim=1))

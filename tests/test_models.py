@@ -1,0 +1,151 @@
+"""Every model: shapes, gradients, seeded determinism, torch.export; MCRL's sizes; the rule; inputs."""
+
+import numpy as np
+import pytest
+import torch
+from omegaconf import OmegaConf
+from sklearn.base import clone
+from sklearn.metrics import accuracy_score, f1_score
+
+from conftest import REPO
+from toolpath.geometry import local_curvature
+from toolpath.labels import categorize
+from toolpath.models import (
+    LEARNED,
+    MODEL_NAMES,
+    LocalCurvatureRule,
+    TorchClassifier,
+    build,
+    prepare,
+    random_rotation_reflection,
+)
+from toolpath.models.__main__ import parameter_count
+
+CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "model" / f"{n}.yaml")) for n in MODEL_NAMES}
+
+
+def windows(n=7, seed=0):
+    return torch.randn(n, 50, 2, generator=torch.Generator().manual_seed(seed)).cumsum(dim=1)
+
+
+@pytest.mark.parametrize("name", LEARNED)
+@pytest.mark.parametrize("batch", [1, 7])
+def test_maps_windows_to_four_logits_and_backpropagates(name, batch):
+    torch.manual_seed(0)
+    net = build(CONFIGS[name]).train()
+    out = net(windows(batch))
+    assert out.shape == (batch, 4) and out.dtype == torch.float32
+    if batch > 1:  # BatchNorm needs more than one sample in training mode
+        out.sum().backward()
+        grads = [p.grad for p in net.parameters() if p.requires_grad]
+        assert all(g is not None for g in grads) and any(g.abs().sum() > 0 for g in grads)
+
+
+@pytest.mark.parametrize("name", LEARNED)
+def test_seeded_build_is_deterministic(name):
+    outs = []
+    for _ in range(2):
+        torch.manual_seed(123)
+        outs.append(build(CONFIGS[name]).eval()(windows()))
+    assert torch.equal(outs[0], outs[1])
+
+
+@pytest.mark.parametrize("name", LEARNED)
+def test_traces_with_torch_export(name):
+    net = build(CONFIGS[name]).eval()
+    x = windows(7)
+    exported = torch.export.export(net, (x,))
+    assert torch.allclose(exported.module()(x), net(x), atol=1e-5)
+
+
+def test_parameter_counts_are_within_a_factor_of_two_of_mcrl_for_modern_baselines():
+    counts = {n: parameter_count(build(CONFIGS[n])) for n in LEARNED}
+    for name in ("convmixer", "convnext", "maxvit"):
+        assert counts["mcrl"] / 2 <= counts[name] <= counts["mcrl"] * 2, (name, counts)
+
+
+def test_mcrl_intermediate_shapes_match_the_text():
+    net = build(CONFIGS["mcrl"]).eval()
+    seen = {}
+
+    def record(key, use_input):
+        def hook(module, inputs, output):
+            seen[key] = inputs[0].shape if use_input else output.shape
+        return hook
+
+    net.pool.register_forward_hook(record("pool", False))
+    net.cnn_fc.register_forward_hook(record("flat", True))
+    h1, h2, h3, h4 = net.features(windows(3))
+    assert seen["pool"] == (3, 32, 15)  # 15 x 32 after max-pooling
+    assert seen["flat"] == (3, 480)
+    assert h1.shape == (3, 16) and h2.shape == (3, 512) and h3.shape == (3, 64) and h4.shape == (3, 32)
+    assert [b.points for b in net.branches] == [50, 30, 20, 10]
+
+
+def test_input_preparation_keeps_local_curvature_and_normalises():
+    x = windows(20) * 37.0 + 500.0
+    prepared = prepare(x)
+    assert np.allclose(local_curvature(prepared.double().numpy()), local_curvature(x.double().numpy()), atol=1e-4)
+    assert torch.allclose(prepared.mean(dim=1), torch.zeros(20, 2), atol=1e-5)
+    assert torch.allclose(prepared.pow(2).sum(2).mean(1), torch.ones(20), atol=1e-5)
+    assert torch.isfinite(prepare(torch.zeros(2, 50, 2))).all()  # degenerate window: no NaN
+
+
+def test_rotation_reflection_augmentation_keeps_local_curvature():
+    x = windows(30).double()
+    aug = random_rotation_reflection(x, torch.Generator().manual_seed(1))
+    assert not torch.allclose(aug, x)
+    assert np.allclose(local_curvature(aug.numpy()), local_curvature(x.numpy()), atol=1e-8)
+
+
+def test_rule_agrees_with_the_labeller_and_speaks_sklearn():
+    rng = np.random.default_rng(4)
+    X = rng.normal(size=(300, 50, 2)) * rng.uniform(0.01, 1.0, size=(300, 1, 2))
+    X = np.cumsum(X + np.array([1.0, 0.0]), axis=1)
+    expected = categorize(local_curvature(X))
+    rule = build(CONFIGS["rule"])
+    assert rule.fit(X) is rule
+    assert np.array_equal(rule.predict(X), expected)
+    assert np.array_equal(rule.predict(X.reshape(300, 100)), expected)  # flattened input too
+    proba = rule.predict_proba(X)
+    assert proba.shape == (300, 4) and np.array_equal(proba.sum(1), np.ones(300))
+    assert rule.score(X, expected) == 1.0
+    assert set(np.unique(expected)) >= {1, 2}
+    assert isinstance(clone(rule), LocalCurvatureRule)
+    with pytest.raises(ValueError, match="expected windows"):
+        rule.predict(np.zeros((3, 7)))
+
+
+def easy_split(n, seed):
+    """Straight lines (category 1) against zig-zags (category 4)."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 1, 50)
+    X, y = [], []
+    for k in range(n):
+        line = np.column_stack([t, rng.uniform(-1, 1) * t])
+        if k % 2:
+            line[:, 1] += 0.05 * (np.arange(50) % 2)
+        X.append(line * rng.uniform(1, 50) + rng.normal(size=2) * 20)
+        y.append(4 if k % 2 else 1)
+    return np.array(X, dtype=np.float32), np.array(y)
+
+
+def test_torch_classifier_learns_an_easy_split_and_works_with_sklearn_metrics():
+    X, y = easy_split(400, 0)
+    Xt, yt = easy_split(100, 1)
+    clf = TorchClassifier(network=CONFIGS["mlp"], settings={"lr": 3e-3, "epochs": 16, "batch_size": 32, "seed": 0})
+    clf.fit(X, y, Xt, yt)
+    pred = clf.predict(Xt)
+    assert accuracy_score(yt, pred) > 0.9  # chance is 0.5
+    assert f1_score(yt, pred, average="macro", labels=[1, 4]) > 0.9
+    assert clf.predict_proba(Xt).shape == (100, 4) and np.allclose(clf.predict_proba(Xt).sum(1), 1)
+    assert len(clf.history_) == 16 and clf.history_[-1].val_accuracy > 0.9
+    again = clone(clf).fit(X, y, Xt, yt)
+    assert np.array_equal(again.predict_proba(Xt), clf.predict_proba(Xt))  # same seed, same result
+
+
+def test_schedule_is_a_staircase_per_optimiser_step():
+    X, y = easy_split(64, 0)
+    clf = TorchClassifier(network=CONFIGS["mlp"], settings={"lr": 1.0e-2, "decay_rate": 0.5, "decay_steps": 4,
+                                                            "batch_size": 16, "epochs": 3, "seed": 0}).fit(X, y)
+    assert [r.lr for r in clf.history_] == pytest.approx([1e-2, 5e-3, 2.5e-3])  # 4 steps per epoch
