@@ -46,14 +46,18 @@ def test_label_program_on_a_zigzag_is_category_4_and_a_line_category_1():
     assert label_program(read_text(line)).label.tolist() == [1]
 
 
-def test_split_is_by_program_and_seeded():
-    program = np.repeat(np.arange(20), 7)
-    a = split_by_program(program, (0.7, 0.15, 0.15), np.random.default_rng(5))
-    b = split_by_program(program, (0.7, 0.15, 0.15), np.random.default_rng(5))
-    assert np.array_equal(a, b)
-    for p in range(20):
+def test_split_is_by_program_stratified_and_seeded():
+    rng = np.random.default_rng(0)
+    program = np.repeat(np.arange(28), 20)
+    labels = rng.integers(1, 5, size=len(program))
+    a = split_by_program(program, labels, (0.7, 0.15, 0.15), seed=5)
+    assert np.array_equal(a, split_by_program(program, labels, (0.7, 0.15, 0.15), seed=5))
+    for p in range(28):
         assert len(set(a[program == p].tolist())) == 1  # a program's windows share one split
-    counts = [len(np.unique(program[a == k])) for k in range(3)]
-    assert counts == [14, 3, 3]
+    assert [len(np.unique(program[a == k])) for k in range(3)] == [20, 4, 4]  # k = 7 folds of 4 programs
+    for k in range(3):
+        assert set(labels[a == k].tolist()) == {1, 2, 3, 4}
     with pytest.raises(ValueError, match="add up to 1"):
-        split_by_program(program, (0.5, 0.2, 0.2), np.random.default_rng(0))
+        split_by_program(program, labels, (0.5, 0.2, 0.2), seed=0)
+    with pytest.raises(ValueError, match="cannot fill"):
+        split_by_program(program[:100], labels[:100], (0.7, 0.15, 0.15), seed=0)

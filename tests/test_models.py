@@ -149,3 +149,26 @@ def test_schedule_is_a_staircase_per_optimiser_step():
     clf = TorchClassifier(network=CONFIGS["mlp"], settings={"lr": 1.0e-2, "decay_rate": 0.5, "decay_steps": 4,
                                                             "batch_size": 16, "epochs": 3, "seed": 0}).fit(X, y)
     assert [r.lr for r in clf.history_] == pytest.approx([1e-2, 5e-3, 2.5e-3])  # 4 steps per epoch
+
+
+def test_metrics_equal_sklearn_on_a_hand_made_case():
+    from sklearn.metrics import f1_score as f1
+    from sklearn.metrics import precision_score, recall_score, roc_auc_score
+
+    from toolpath.training.metrics import classification_metrics
+
+    y = np.array([1, 1, 2, 2, 3, 4, 4, 4])
+    proba = np.array([[.7, .1, .1, .1], [.2, .5, .2, .1], [.1, .8, .05, .05], [.6, .2, .1, .1],
+                      [.1, .1, .7, .1], [.05, .05, .1, .8], [.1, .1, .2, .6], [.1, .1, .5, .3]])
+    m = classification_metrics(y, proba)
+    pred = np.array([1, 2, 2, 1, 3, 4, 4, 3])
+    assert m["accuracy"] == 5 / 8
+    assert m["precision"] == pytest.approx(precision_score(y, pred, average="macro"))
+    assert m["recall"] == pytest.approx(recall_score(y, pred, average="macro"))
+    assert m["f1"] == pytest.approx(f1(y, pred, average="macro"))
+    assert m["auc"] == pytest.approx(roc_auc_score(y, proba, multi_class="ovr", average="macro"))
+    assert m["loss"] == pytest.approx(-np.mean(np.log(proba[np.arange(8), y - 1])))  # Eq. 29
+    assert m["confusion"] == [[1, 1, 0, 0], [1, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 2]]
+    assert m["per_class"]["3"]["support"] == 1
+    missing = classification_metrics(np.array([1, 1, 2]), np.array([[.9, .1, 0, 0], [.2, .8, 0, 0], [.3, .7, 0, 0]]))
+    assert missing["per_class"]["4"]["auc"] is None and missing["auc"] is not None

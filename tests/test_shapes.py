@@ -20,7 +20,8 @@ SPECS = {
 CAM = {"tool_diameter": 2.0, "finish_stock": 0.2, "stepover": 0.4, "roughing_passes": 2, "depth": 2.0,
        "rotation": [0.0, 360.0], "stay_down": 0.5}
 ROUGH = {"chord_tolerance": 0.002, "max_segment": 0.5, "tiny_segment_rate": 0.05,
-         "tiny_segment_length": 0.001, "noise_probability": 1.0, "noise_amplitude": 0.002}
+         "tiny_segment_length": 0.001, "noise_probability": 1.0, "noise_amplitude": 0.002, "noise_span": 0,
+         "noise_duty": 1.0}
 
 
 def test_gear_has_the_configured_tip_and_root_radius():

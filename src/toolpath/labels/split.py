@@ -3,26 +3,35 @@
 from __future__ import annotations
 
 import numpy as np
+from sklearn.model_selection import StratifiedGroupKFold
 
 SPLIT_NAMES = ("train", "val", "test")
 
 
-def split_by_program(program_ids: np.ndarray, fractions: tuple[float, float, float],
-                     rng: np.random.Generator) -> np.ndarray:
+def split_by_program(program_ids: np.ndarray, labels: np.ndarray, fractions: tuple[float, float, float],
+                     seed: int) -> np.ndarray:
     """Split code (0 train, 1 val, 2 test) for each window, assigned per whole program.
 
-    Programs are shuffled with ``rng`` and dealt out by the cumulative ``fractions`` of the
-    program count; each split gets at least one program when there are three or more.
+    scikit-learn's ``StratifiedGroupKFold`` deals whole programs (groups) into ``k`` folds whose
+    class mixes are as close as the programs allow, where ``k = round(1 / min(val, test))``; the
+    first ``round(test * k)`` folds are the test split, the next ``round(val * k)`` the validation
+    split.  Roughness varies from program to program, so a plain random deal of a few dozen
+    programs can leave a split without rough windows; stratifying keeps every split representative.
+    The realised fractions are multiples of ``1 / k`` (0.15 gives k = 7: 1/7 each).
     """
     if not np.isclose(sum(fractions), 1.0):
         raise ValueError(f"split fractions {fractions} do not add up to 1")
-    programs = np.unique(program_ids)
-    order = rng.permutation(programs)
-    n = len(order)
-    n_val = max(1, round(fractions[1] * n)) if n >= 3 else 0
-    n_test = max(1, round(fractions[2] * n)) if n >= 3 else 0
-    code = np.zeros(n, dtype=np.int8)
-    code[n - n_test - n_val : n - n_test] = 1
-    code[n - n_test :] = 2
-    lookup = dict(zip(order.tolist(), code.tolist(), strict=True))
-    return np.array([lookup[p] for p in program_ids.tolist()], dtype=np.int8)
+    _, val, test = fractions
+    k = max(3, round(1.0 / min(val, test)))
+    n_test, n_val = max(1, round(test * k)), max(1, round(val * k))
+    n_programs = len(np.unique(program_ids))
+    if n_programs < k:
+        raise ValueError(f"{n_programs} programs cannot fill {k} folds; generate more programs")
+    folds = StratifiedGroupKFold(n_splits=k, shuffle=True, random_state=seed)
+    code = np.zeros(len(program_ids), dtype=np.int8)
+    for f, (_, held) in enumerate(folds.split(np.zeros(len(labels)), labels, program_ids)):
+        if f < n_test:
+            code[held] = 2
+        elif f < n_test + n_val:
+            code[held] = 1
+    return code

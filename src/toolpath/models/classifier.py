@@ -69,3 +69,28 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
 
     def predict(self, X) -> np.ndarray:
         return self.classes_[self.decision_function(X).argmax(axis=1)]
+
+
+def to_checkpoint(model: Any) -> dict:
+    """A plain dict (config, weights, history) that ``torch.load(weights_only=True)`` can read."""
+    if isinstance(model, TorchClassifier):
+        return {"kind": "torch", "network": dict(model.network), "settings": dict(model.settings or {}),
+                "state_dict": model.network_.state_dict(),
+                "history": [vars(r) for r in model.history_]}
+    return {"kind": "rule", "network": {"_target_": "toolpath.models.LocalCurvatureRule",
+                                        "bounds": list(model.bounds)}}
+
+
+def from_checkpoint(checkpoint: Mapping[str, Any]) -> Any:
+    """The fitted classifier a checkpoint describes (eval mode, ready to predict)."""
+    if checkpoint["kind"] == "rule":
+        rule = build(checkpoint["network"])
+        rule.classes_ = CLASSES.copy()
+        return rule
+    clf = TorchClassifier(network=checkpoint["network"], settings=checkpoint["settings"])
+    clf.network_ = build(checkpoint["network"])
+    clf.network_.load_state_dict(checkpoint["state_dict"])
+    clf.network_.eval()
+    clf.classes_ = CLASSES.copy()
+    clf.history_ = []
+    return clf

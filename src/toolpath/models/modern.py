@@ -126,10 +126,8 @@ class _PartitionAttention(nn.Module):
     def forward(self, x: Tensor) -> Tensor:  # x: (B, L, C), L divisible by size
         b, length, c = x.shape
         groups = length // self.size
-        if self.grid:  # token i joins group i % groups
-            parts = x.reshape(b, self.size, groups, c).transpose(1, 2)
-        else:  # token i joins group i // size
-            parts = x.reshape(b, groups, self.size, c)
+        # grid: token i joins group i % groups; block: token i joins group i // size
+        parts = x.reshape(b, self.size, groups, c).transpose(1, 2) if self.grid else x.reshape(b, groups, self.size, c)
         parts = parts.reshape(b * groups, self.size, c)
         h = self.norm1(parts)
         parts = parts + self.attn(h, h, h, need_weights=False)[0]

@@ -25,7 +25,9 @@ class Roughness:
     max_segment : mm, longer segments are split evenly (``inf``: never).
     tiny_segment_rate : probability that a segment gets a tiny extra segment at its start.
     tiny_segment_length : mm, length of those tiny segments.
-    noise : mm, standard deviation of the normal displacement of every point (0: none).
+    noise : mm, standard deviation of the normal displacement (0: none).
+    noise_span : points per span of the on/off noise envelope; each span is noisy with probability
+        ``noise_duty`` (roughness comes and goes along a real path; 0 spans = noise everywhere).
     """
 
     chord_tolerance: float
@@ -33,6 +35,8 @@ class Roughness:
     tiny_segment_rate: float
     tiny_segment_length: float
     noise: float
+    noise_span: int = 0
+    noise_duty: float = 1.0
 
 
 def offset_passes(outline: Polygon, tool_radius: float, finish_stock: float, stepover: float,
@@ -85,6 +89,9 @@ def roughen(points: np.ndarray, roughness: Roughness, rng: np.random.Generator) 
         norm = np.linalg.norm(tangent, axis=1, keepdims=True)
         normal = np.column_stack([-tangent[:, 1], tangent[:, 0]]) / np.where(norm > 0, norm, 1.0)
         shift = rng.normal(0.0, roughness.noise, len(pts))[:, None] * normal
+        if roughness.noise_span > 0:
+            spans = rng.random(len(pts) // roughness.noise_span + 1) < roughness.noise_duty
+            shift *= np.repeat(spans, roughness.noise_span)[: len(pts), None]
         shift[0] = shift[-1] = 0.0
         pts = pts + shift
     return pts

@@ -54,26 +54,33 @@ def outline(shape: str, params: Mapping[str, Any]) -> Polygon:
     raise ValueError(f"unknown shape {shape!r}; expected one of {SHAPES}")
 
 
+def _roughness(rough: dict, rng: np.random.Generator) -> Roughness:
+    noisy = rng.random() < rough["noise_probability"]
+    return Roughness(chord_tolerance=rough["chord_tolerance"], max_segment=rough["max_segment"],
+                     tiny_segment_rate=rough["tiny_segment_rate"], tiny_segment_length=rough["tiny_segment_length"],
+                     noise=rough["noise_amplitude"] if noisy else 0.0, noise_span=int(rough["noise_span"]),
+                     noise_duty=rough["noise_duty"])
+
+
 def synthesize(shape: str, shape_spec: Mapping[str, Any], cam_spec: Mapping[str, Any],
                roughness_spec: Mapping[str, Any], rng: np.random.Generator) -> tuple[list[Pass], dict]:
-    """Passes of one program and every value drawn for it (recorded in the program header)."""
+    """Passes of one program and the values drawn for it (recorded in the program header).
+
+    Part and CAM values are drawn once per program, roughness once per pass.
+    """
     part = draw_all(shape_spec, rng)
     cam = draw_all(cam_spec, rng)
-    rough = draw_all(roughness_spec, rng)
-    noisy = rng.random() < rough.pop("noise_probability")
-    roughness = Roughness(
-        chord_tolerance=rough["chord_tolerance"],
-        max_segment=rough["max_segment"],
-        tiny_segment_rate=rough["tiny_segment_rate"],
-        tiny_segment_length=rough["tiny_segment_length"],
-        noise=rough["noise_amplitude"] if noisy else 0.0,
-    )
     part_outline = affinity.rotate(outline(shape, part), cam["rotation"], origin=(0, 0))
     tool_radius = cam["tool_diameter"] / 2.0
     contours = offset_passes(part_outline, tool_radius, cam["finish_stock"],
                              cam["stepover"] * cam["tool_diameter"], int(cam["roughing_passes"]))
-    passes = [Pass(roughen(discretise(c, roughness.chord_tolerance, roughness.max_segment), roughness, rng),
-                   z=-abs(cam["depth"])) for c in contours]
+    passes, per_pass = [], []
+    for contour in contours:  # roughness is drawn per pass: it varies within a program, as in real output
+        roughness = _roughness(draw_all(roughness_spec, rng), rng)
+        pts = roughen(discretise(contour, roughness.chord_tolerance, roughness.max_segment), roughness, rng)
+        passes.append(Pass(pts, z=-abs(cam["depth"])))
+        per_pass.append(roughness)
+    roughness = per_pass[-1]  # the finishing pass's roughness is recorded alongside the part
     drawn = {**{f"part.{k}": v for k, v in part.items()}, **{f"cam.{k}": v for k, v in cam.items()},
              **{f"roughness.{k}": v for k, v in vars(roughness).items()}}
     return passes, drawn

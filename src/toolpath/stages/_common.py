@@ -53,3 +53,41 @@ def progress(items: list[T], label: str) -> Iterator[T]:
         for item in items:
             yield item
             bar.advance(task)
+
+
+WINDOW_KEYS = ("windows", "label", "split", "program")
+
+
+def load_windows(path: Path) -> dict:
+    """The arrays of a windows file, or exit with a message naming the file and the problem."""
+    import numpy as np
+
+    if not path.is_file():
+        raise SystemExit(f"{path}: windows file not found; run `dvc repro label` first")
+    try:
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"{path}: not a readable windows file ({exc})") from None
+    missing = [k for k in WINDOW_KEYS if k not in arrays]
+    if missing:
+        raise SystemExit(f"{path}: malformed windows file, missing {', '.join(missing)}")
+    w = arrays["windows"]
+    if w.ndim != 3 or w.shape[2] != 2 or len(arrays["label"]) != len(w) or len(arrays["split"]) != len(w):
+        raise SystemExit(f"{path}: malformed windows file, windows {w.shape} do not match labels / split")
+    return arrays
+
+
+def save_checkpoint(checkpoint: dict, path: Path) -> None:
+    import torch
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save(checkpoint, path)
+
+
+def load_checkpoint(path: Path) -> dict:
+    import torch
+
+    if not path.is_file():
+        raise SystemExit(f"{path}: model file not found; run `dvc repro train` first")
+    return torch.load(path, weights_only=True)

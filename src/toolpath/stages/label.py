@@ -58,9 +58,8 @@ def main(argv: list[str] | None = None) -> None:
             parts.append(windows)
             program.append(np.full(len(windows), k, dtype=np.int32))
         windows, program = concat(parts, lab.window), np.concatenate(program)
-        rng = np.random.default_rng(config.seed_for(cfg.seed, "label", args.shape))
         fractions = (lab.split.train, lab.split.val, lab.split.test)
-        split = split_by_program(program, fractions, rng)
+        split = split_by_program(program, windows.label, fractions, config.seed_for(cfg.seed, "label", args.shape))
         out = Path(cfg.paths.windows) / f"{args.shape}.npz"
         out.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(out, windows=windows.windows, origin=windows.origin,
