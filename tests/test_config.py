@@ -24,21 +24,26 @@ def test_every_experiment_composes(tmp_path, experiment):
         assert cfg.generate[shape].programs >= 1
 
 
-def _params_keys(stage: dict, shape: str) -> list[str]:
-    keys = []
-    for entry in stage.get("params", []):
-        keys.extend(entry if isinstance(entry, dict) else [entry])
-    return [k.replace("${item.shape}", shape) for k in keys]
+def _matrix_items(stage: dict, params) -> list[dict]:
+    """Every combination of a stage's matrix, its lists resolved from params.yaml."""
+    items = [{}]
+    for key, ref in stage.get("matrix", {}).items():
+        values = OmegaConf.select(params, ref[2:-1]) if isinstance(ref, str) else ref
+        items = [{**item, key: v} for item in items for v in values]
+    return items
 
 
 def test_every_dvc_params_key_exists():
     params = OmegaConf.load(REPO / "params.yaml")
     stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
-    assert set(stages) >= {"generate", "label"}
+    assert set(stages) >= {"generate", "label", "train"}
     for name, stage in stages.items():
-        for shape in params.shapes:
-            for key in _params_keys(stage, shape):
-                assert OmegaConf.select(params, key) is not None, f"{name}: params key {key} missing"
+        for item in _matrix_items(stage, params):
+            for entry in stage.get("params", []):
+                for key in entry if isinstance(entry, dict) else [entry]:
+                    for k, v in item.items():
+                        key = key.replace("${item." + k + "}", str(v))
+                    assert OmegaConf.select(params, key) is not None, f"{name}{item}: params key {key} missing"
 
 
 def test_stage_names_match_modules():
