@@ -43,13 +43,14 @@ def test_every_dvc_params_key_exists():
                 for key in entry if isinstance(entry, dict) else [entry]:
                     for k, v in item.items():
                         key = key.replace("${item." + k + "}", str(v))
+                    key = re.sub(r"\$\{([^}]+)\}", lambda m: str(OmegaConf.select(params, m.group(1))), key)
                     assert OmegaConf.select(params, key) is not None, f"{name}{item}: params key {key} missing"
 
 
 def test_stage_names_match_modules():
     stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
     for name, stage in stages.items():
-        assert f"toolpath.stages.{name} " in stage["cmd"]
+        assert re.search(rf"python -m toolpath\.stages\.{name}(\s|$)", stage["cmd"])
         assert (REPO / "src" / "toolpath" / "stages" / f"{name}.py").is_file()
 
 

@@ -43,6 +43,14 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         assert (work / f"data/windows/{shape}.npz").is_file()
         metrics = json.loads((work / f"reports/metrics/label/{shape}.json").read_text())
         assert metrics["windows"] > 0
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        for model in ("mcrl", "mlp", "rule"):  # the smoke profile's models
+            metrics = json.loads((work / f"reports/metrics/train/{shape}/{model}.json").read_text())
+            assert 0.0 <= metrics["test"]["accuracy"] <= 1.0
+    general = json.loads((work / "reports/metrics/generalise.json").read_text())
+    assert set(general["cross_shape"]["mcrl"]) == {"gear", "pentagram", "maple_leaf"}
+    assert "not found" in general["real_gcode"]["skipped"]  # the copy has no ../shared beside it
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
+    assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)

@@ -56,3 +56,45 @@ def test_label_names_file_and_line_of_a_malformed_program(smoke_dir):
         label.main(["--shape", "gear"])
     runs = mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
     assert [r.info.status for r in runs if r.info.run_name == "label@gear"] == ["FAILED"]
+
+
+def _trained(smoke_dir, shape, model):
+    from toolpath.stages import train
+
+    train.main(["--shape", shape, "--model", model])
+    return json.loads((smoke_dir / f"reports/metrics/train/{shape}/{model}.json").read_text())
+
+
+def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
+    generate.main(["--shape", "maple_leaf"])
+    label.main(["--shape", "maple_leaf"])
+    metrics = _trained(smoke_dir, "maple_leaf", "mlp")
+    first = (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes()
+    for split in ("val", "test"):
+        assert {"accuracy", "loss", "precision", "recall", "f1", "auc", "per_class", "confusion"} <= set(metrics[split])
+    assert metrics["epochs_run"] == 2
+    curves = (smoke_dir / "reports/plots/train/maple_leaf/mlp.csv").read_text().splitlines()
+    assert curves[0] == "epoch,lr,train_loss,train_accuracy,val_loss,val_accuracy" and len(curves) == 3
+    assert (smoke_dir / "models/maple_leaf/mlp.pt").is_file()
+    client = mlflow.MlflowClient()
+    run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
+               if r.info.run_name == "train@maple_leaf-mlp")
+    steps = [m.step for m in client.get_metric_history(run.info.run_id, "val/accuracy")]
+    assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
+    assert "confusion_test.png" in [a.path for a in client.list_artifacts(run.info.run_id)]
+    _trained(smoke_dir, "maple_leaf", "mlp")  # same seed, byte-identical metrics
+    assert (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes() == first
+    rule = _trained(smoke_dir, "maple_leaf", "rule")
+    assert rule["test"]["accuracy"] == 1.0 and rule["epochs_run"] == 0  # the labels are the rule's
+
+
+def test_train_without_windows_exits_with_a_message(smoke_dir):
+    from toolpath.stages import train
+
+    with pytest.raises(SystemExit, match="windows file not found"):
+        train.main(["--shape", "gear", "--model", "mlp"])
+    bad = smoke_dir / "data/windows/gear.npz"
+    bad.parent.mkdir(parents=True)
+    np.savez(bad, windows=np.zeros((3, 50, 2)))
+    with pytest.raises(SystemExit, match="missing label, split, program"):
+        train.main(["--shape", "gear", "--model", "mlp"])
