@@ -1,0 +1,82 @@
+"""The shared smoothing problem and the mean-filter / Bezier smoothers on hand-made windows."""
+
+import numpy as np
+import pytest
+
+from toolpath.geometry import local_curvature, point_to_polyline
+from toolpath.optimize import SmoothingProblem, bezier_fit, mean_filter, project_to_tube
+
+
+def zigzag(n=50, amplitude=0.05):
+    x = np.linspace(0, 10, n)
+    y = amplitude * (np.arange(n) % 2)
+    y[0] = y[-1] = 0.0
+    return np.column_stack([x, y])
+
+
+def test_mean_filter_keeps_a_straight_line_and_the_ends():
+    line = np.column_stack([np.linspace(0, 5, 20), np.linspace(1, 3, 20)])
+    assert np.allclose(mean_filter(line, 5, passes=3), line)
+    zz = zigzag()
+    out = mean_filter(zz, 3, passes=2)
+    assert np.array_equal(out[[0, -1]], zz[[0, -1]])
+    assert local_curvature(out) < 0.2 * local_curvature(zz)
+    with pytest.raises(ValueError, match="odd"):
+        mean_filter(zz, 4)
+
+
+def test_mean_filter_of_width_3_by_hand():
+    pts = np.array([[0, 0], [1, 3], [2, 0], [3, 0]], dtype=float)
+    assert mean_filter(pts, 3)[1:3].tolist() == [[1, 1], [2, 1]]  # (0+3+0)/3 and (3+0+0)/3
+
+
+def test_bezier_fit_keeps_a_line_and_follows_a_circular_arc():
+    line = np.column_stack([np.linspace(0, 5, 30), np.linspace(0, 2, 30)])
+    assert np.allclose(bezier_fit(line, degree=5), line)
+    angle = np.linspace(0, np.pi / 2, 50)
+    arc = 10 * np.column_stack([np.cos(angle), np.sin(angle)])
+    fitted = bezier_fit(arc, degree=5)
+    assert np.array_equal(fitted[[0, -1]], arc[[0, -1]])
+    assert np.abs(np.hypot(*fitted.T) - 10).max() < 1e-3  # a quintic follows a quarter circle closely
+
+
+def test_bezier_fit_smooths_a_zigzag_and_keeps_the_point_count():
+    zz = zigzag()
+    out = bezier_fit(zz, degree=5)
+    assert out.shape == zz.shape and local_curvature(out) < 0.05 * local_curvature(zz)
+
+
+def test_project_to_tube_on_a_square_side():
+    side = np.array([[0, 0], [10, 0]], dtype=float)
+    pts = np.array([[5, 1.0], [5, 0.01], [-3, 4]], dtype=float)
+    out = project_to_tube(pts, side, 0.05)
+    assert np.allclose(out, [[5, 0.05], [5, 0.01], [-0.03, 0.04]])
+
+
+@pytest.mark.parametrize("mode", ["none", "penalty", "bound"])
+def test_problem_objective_is_eq10_plus_fidelity(mode):
+    bump = np.array([[0, 0], [1, 0.2], [2, 0]], dtype=float)
+    problem = SmoothingProblem(bump, mode=mode, tolerance=0.05, weight=10.0)
+    assert problem.dimension == 2
+    flat = problem.displacement(np.array([[0, 0], [1, 0], [2, 0]], dtype=float))
+    pts = problem.points(flat)
+    if mode == "bound":  # (1, 0) lies 0.2 / sqrt(1.04) from the bump: projected back to 0.05
+        assert point_to_polyline(pts, bump).max() == pytest.approx(0.05)
+        return
+    assert np.allclose(pts[:, 1], 0.0)
+    expected = 10 * 0.2 / np.sqrt(1.04) if mode == "penalty" else 0.0  # a straight line: Fitness 0
+    assert problem.objective(flat) == pytest.approx(expected)
+    assert problem.objective(np.zeros((3, 2)))[0] == pytest.approx(problem.objective(np.zeros(2)))
+
+
+def test_bound_mode_never_returns_a_point_beyond_the_tolerance():
+    rng = np.random.default_rng(0)
+    problem = SmoothingProblem(zigzag(), mode="bound", tolerance=0.05)
+    pts = problem.points(rng.normal(scale=1.0, size=(200, problem.dimension)))
+    assert point_to_polyline(pts, problem.window).max() <= 0.05 + 1e-12
+    assert np.array_equal(pts[:, [0, -1]], np.broadcast_to(problem.window[[0, -1]], (200, 2, 2)))
+
+
+def test_problem_rejects_unknown_mode():
+    with pytest.raises(ValueError, match="fidelity mode"):
+        SmoothingProblem(zigzag(), mode="loose")
