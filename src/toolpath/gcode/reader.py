@@ -4,7 +4,8 @@ Supported: G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices
 G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
 and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
 block delete ``/``, CRLF and tabs.  Work offsets (G54-G59), tool length offsets (G43/G49) and
-path-control modes (G61/G64) are accepted and do not move the XY path.
+path-control modes (G61/G64) are accepted and do not move the XY path.  After M2 or M30 the
+program has ended, as on a controller: later lines are kept in ``Program.lines`` but not run.
 
 Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, ``#`` parameters, O-words,
 NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G28/G30/G53
