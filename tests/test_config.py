@@ -66,3 +66,12 @@ def test_seed_for_is_stable_and_distinct():
     assert config.seed_for(1, "generate", "gear") == config.seed_for(1, "generate", "gear")
     assert config.seed_for(1, "generate", "gear") != config.seed_for(1, "generate", "pentagram")
     assert config.seed_for(1, "label", "gear") != config.seed_for(2, "label", "gear")
+
+
+def test_committed_label_metrics_back_the_readme_claims():
+    """README: on the default profile every shape has > 5,000 windows and every class > 5 % of them."""
+    assert OmegaConf.load(REPO / "params.yaml").profile == "default"
+    for shape in OmegaConf.load(REPO / "params.yaml").shapes:
+        metrics = yaml.safe_load((REPO / "reports" / "metrics" / "label" / f"{shape}.json").read_text())
+        assert metrics["windows"] > 5000, shape
+        assert min(metrics["class_share"].values()) > 0.05, shape

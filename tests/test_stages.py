@@ -98,3 +98,14 @@ def test_train_without_windows_exits_with_a_message(smoke_dir):
     np.savez(bad, windows=np.zeros((3, 50, 2)))
     with pytest.raises(SystemExit, match="missing label, split, program"):
         train.main(["--shape", "gear", "--model", "mlp"])
+
+
+def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
+    from toolpath.stages import generalise
+
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        windows = smoke_dir / f"data/windows/{shape}.npz"
+        windows.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(windows, windows=np.zeros((2, 50, 2)), label=np.ones(2), split=np.zeros(2), program=np.zeros(2))
+    with pytest.raises(SystemExit, match=r"train/gear/mlp.json: train metrics not found"):
+        generalise.main([])

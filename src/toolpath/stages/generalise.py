@@ -44,6 +44,16 @@ def corpus_windows(folder: Path, options: ReaderOptions, size: int, stride: int)
     return {"files": files}, windows
 
 
+def _val_accuracy(path: Path) -> float:
+    """Validation accuracy from a train metrics file, or exit naming the file and the problem."""
+    try:
+        return float(json.loads(path.read_text())["val"]["accuracy"])
+    except FileNotFoundError:
+        raise SystemExit(f"{path}: train metrics not found; run `dvc repro train` first") from None
+    except (ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"{path}: malformed train metrics ({exc!r})") from None
+
+
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     gen, common = cfg.generalise, cfg.train.common
@@ -52,8 +62,7 @@ def main(argv: list[str] | None = None) -> None:
     data = {s: load_windows(Path(cfg.paths.windows) / f"{s}.npz") for s in cfg.shapes}
     subset = {s: {k: (d["windows"][d["split"] == k], d["label"][d["split"] == k]) for k in range(3)}
               for s, d in data.items()}
-    metrics_dir = Path(cfg.paths.metrics) / "train"
-    val_acc = {b: float(np.mean([json.loads((metrics_dir / s / f"{b}.json").read_text())["val"]["accuracy"]
+    val_acc = {b: float(np.mean([_val_accuracy(Path(cfg.paths.metrics) / "train" / s / f"{b}.json")
                                  for s in cfg.shapes])) for b in gen.baselines}
     best = best_by_validation(val_acc)
     with tracking.stage_run("generalise", config.flat(gen, "generalise")):
