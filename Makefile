@@ -12,10 +12,13 @@ export DVC_NO_ANALYTICS := 1
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): pyproject.toml | $(PY)
+$(STAMP): pyproject.toml Makefile | $(PY)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "$(TORCH_SPEC)"
 	$(PY) -m pip install --quiet -e ".[dev]"
+	# mealpy 3.0.3 pins numpy<=1.26 (lifted upstream, unreleased): install it without its pins; its
+	# needs (numpy, scipy, pandas, matplotlib, tqdm) are already there.  Not in pyproject for that reason.
+	$(PY) -m pip install --quiet --no-deps "mealpy==3.0.3"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -50,7 +50,11 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     general = json.loads((work / "reports/metrics/generalise.json").read_text())
     assert set(general["cross_shape"]["mcrl"]) == {"gear", "pentagram", "maple_leaf"}
     assert "not found" in general["real_gcode"]["skipped"]  # the copy has no ../shared beside it
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        smoothing = json.loads((work / f"reports/metrics/optimise/{shape}.json").read_text())
+        assert smoothing["methods"]["bound"]["plain"]["nacoa"]["max_deviation_mm"] <= 0.05 + 1e-9
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
+    assert "reports/metrics/optimise/gear.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)

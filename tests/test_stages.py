@@ -109,3 +109,45 @@ def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
         np.savez(windows, windows=np.zeros((2, 50, 2)), label=np.ones(2), split=np.zeros(2), program=np.zeros(2))
     with pytest.raises(SystemExit, match=r"train/gear/mlp.json: train metrics not found"):
         generalise.main([])
+
+
+def test_optimise_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
+    import csv
+
+    from toolpath.stages import optimise
+
+    generate.main(["--shape", "gear"])
+    label.main(["--shape", "gear"])
+    optimise.main(["--shape", "gear"])
+    summary_path = smoke_dir / "reports/metrics/optimise/gear.json"
+    first = summary_path.read_bytes()
+    summary = json.loads(first)
+    with (smoke_dir / "reports/metrics/optimise/gear.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == summary["sample"]["runs"] > 0
+    methods = {"mean_filter", "bezier", "nacoa", "coa", "pso"}  # the smoke profile's methods
+    assert set(summary["methods"]["bound"]["plain"]) == methods
+    assert set(summary["methods"]["none"]["shifted"]) == {"coa", "pso"}  # mealpy ones, both encodings
+    for row in rows:
+        if row["mode"] == "bound":
+            assert float(row["max_deviation_mm"]) <= 0.05 + 1e-6
+    assert summary["dispatch"]["bound"]["1"]["method"] == "none"
+    curves = (smoke_dir / "reports/plots/optimise/gear.csv").read_text().splitlines()
+    assert curves[0].split(",")[0] == "budget_fraction" and "nacoa" in curves[0]
+    smoothed = np.load(smoke_dir / "data/smoothed/gear.npz")
+    assert smoothed["points"].shape == (len(rows), 50, 2)
+    timing = json.loads((smoke_dir / "reports/timing/optimise/gear.json").read_text())
+    assert timing["bound"]["plain"]["nacoa"]["complexity"] == "O(n^2) + O(t p d)"
+    run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
+               if r.info.run_name == "optimise@gear")
+    assert run.data.metrics["bound.plain.nacoa.mean_reduction_pct"] == pytest.approx(
+        summary["methods"]["bound"]["plain"]["nacoa"]["mean_reduction_pct"])
+    optimise.main(["--shape", "gear"])  # same seed, same bytes
+    assert summary_path.read_bytes() == first
+
+
+def test_optimise_rejects_an_unknown_method(smoke_dir):
+    from toolpath.stages.optimise import plan
+
+    with pytest.raises(SystemExit, match="unknown method"):
+        plan([(0, 2, True)], {"methods": ["sandpaper"], "modes": ["bound"], "encodings": ["plain"]})

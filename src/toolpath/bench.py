@@ -1,13 +1,16 @@
-"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--threads N] [--repeats N]
+"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimise] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
-fixed), beside the exact rule's time on the same batch.  Prints the table.
+fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/optimise.json``:
+NACOA on one rough 50-point window at the paper's population settings (N = 1000, M0 = 10,
+M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Prints the tables.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import platform
 import statistics
@@ -15,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import torch
 from rich.console import Console
 from rich.table import Table
@@ -66,11 +70,61 @@ def bench_models(threads: int, repeats: int, batch: int = 256, seed: int = 0) ->
     return result
 
 
+def rough_window(seed: int = 0, n: int = 50) -> np.ndarray:
+    """A seeded rough window: a 20 mm arc of radius 30 mm with 0.03 mm noise and one 0.3 mm spike."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    angle = np.linspace(0.0, 20.0 / 30.0, n)
+    pts = 30.0 * np.column_stack([np.cos(angle), np.sin(angle)])
+    pts[1:-1] += rng.normal(scale=0.03, size=(n - 2, 2))
+    pts[n // 2] += 0.3
+    return pts
+
+
+def bench_optimise(repeats: int, generations: int, seed: int = 0) -> dict:
+    """Median seconds of NACOA on one window at the paper's population settings, per mode and gradient."""
+    from toolpath.geometry import fitness
+    from toolpath.optimize import SmoothingProblem
+    from toolpath.optimize.nacoa import NACOA, NACOASettings
+
+    window = rough_window(seed)
+    out = {}
+    for mode in ("none", "bound"):
+        for gradient in ("exact", "central"):
+            settings = NACOASettings(population=1000, generations=generations, m0=10, m_min=2, m_max=10,
+                                     exchange_every=10, gradient=gradient, perturbation=0.05)
+            problem = SmoothingProblem(window, mode=mode, tolerance=0.05)
+            runs = [NACOA(settings).solve(problem, seed) for _ in range(repeats)]
+            out[f"{mode}/{gradient}"] = {
+                "seconds_median": statistics.median(r.seconds for r in runs), "population": 1000,
+                "generations": generations, "evaluations": runs[0].evaluations,
+                "fitness_before": float(fitness(window)), "fitness_after": runs[0].objective}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--only", choices=("models", "optimise"), help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
+    parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
     args = parser.parse_args(argv)
+    if args.only != "models":
+        # one core, as the target says: numpy's elementwise work is single-threaded; pin BLAS anyway
+        with _single_thread():
+            optimise = bench_optimise(max(3, args.repeats // 6), args.generations)
+        write_json({"machine": machine(), "nacoa": optimise}, OUT / "optimise.json")
+        table = Table(title="NACOA, one 50-point window, N = 1000, one core (median)")
+        for column in ("mode / gradient", "generations", "evaluations", "seconds", "fitness before -> after"):
+            table.add_column(column, justify="right")
+        for key, row in optimise.items():
+            table.add_row(key, str(row["generations"]), f"{row['evaluations']:,}", f"{row['seconds_median']:.3f}",
+                          f"{row['fitness_before']:.3f} -> {row['fitness_after']:.3f}")
+        Console().print(table)
+        print(f"wrote {OUT / 'optimise.json'}")
+        if args.only == "optimise":
+            return 0
     models = bench_models(args.threads, args.repeats)
     write_json({"machine": machine(), "models": models}, OUT / "models.json")
     table = Table(title=f"FP32 forward, batch 256, {args.threads} threads (median of {args.repeats})")
@@ -82,6 +136,17 @@ def main(argv: list[str] | None = None) -> int:
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
     return 0
+
+
+@contextlib.contextmanager
+def _single_thread():
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # scikit-learn depends on threadpoolctl, so this is only a safety net
+        yield
+        return
+    with threadpool_limits(limits=1):
+        yield
 
 
 if __name__ == "__main__":

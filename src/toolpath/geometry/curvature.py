@@ -22,9 +22,11 @@ def turning_cosines(points: np.ndarray) -> np.ndarray:
 
     A term with a zero-length segment is 1 (counted as no turn).
     """
-    v = segment_vectors(points)
-    dot = np.einsum("...k,...k->...", v[..., 1:, :], v[..., :-1, :])  # Eq. 1
-    norm = np.linalg.norm(v, axis=-1)  # Eq. 2
+    p = np.asarray(points, dtype=np.float64)
+    # per coordinate rather than einsum / linalg.norm over an axis of 2: several times faster
+    vx, vy = np.diff(p[..., 0], axis=-1), np.diff(p[..., 1], axis=-1)
+    dot = vx[..., 1:] * vx[..., :-1] + vy[..., 1:] * vy[..., :-1]  # Eq. 1
+    norm = np.sqrt(vx * vx + vy * vy)  # Eq. 2
     denom = norm[..., 1:] * norm[..., :-1]
     safe = np.where(denom > 0.0, denom, 1.0)
     cos = np.where(denom > 0.0, dot / safe, 1.0)
@@ -43,8 +45,9 @@ def local_curvature(points: np.ndarray) -> np.ndarray:
 def smoothness_penalty(points: np.ndarray) -> np.ndarray:
     """SmoothnessPenalty, Eq. 8-9: ``sum_{i=2}^{n-1} ||P_{i+1} - 2 P_i + P_{i-1}||``, shape (...,)."""
     p = np.asarray(points, dtype=np.float64)
-    second = p[..., 2:, :] - 2.0 * p[..., 1:-1, :] + p[..., :-2, :]
-    return np.linalg.norm(second, axis=-1).sum(axis=-1)
+    sx = p[..., 2:, 0] - 2.0 * p[..., 1:-1, 0] + p[..., :-2, 0]
+    sy = p[..., 2:, 1] - 2.0 * p[..., 1:-1, 1] + p[..., :-2, 1]
+    return np.sqrt(sx * sx + sy * sy).sum(axis=-1)
 
 
 def fitness(points: np.ndarray) -> np.ndarray:

@@ -1,0 +1,94 @@
+"""Every smoothing method behind one call, and the roughness-driven dispatch of Sec. 5.3.
+
+``smooth(window, method, cfg, seed)`` builds the shared :class:`SmoothingProblem` from ``cfg`` (the
+``optimise`` section of the config) and runs one method on it:
+
+* ``mean_filter`` and ``bezier`` are one-shot smoothers; in ``bound`` mode their result is projected
+  into the tolerance tube like every optimiser's candidates, so no method leaves it;
+* ``nacoa`` is :class:`toolpath.optimize.nacoa.NACOA`;
+* ``coa``, ``hba``, ``avoa``, ``scso``, ``esoa``, ``pso`` are mealpy's, given NACOA's budget of evaluations
+  (computed from its settings), its first population and the same seed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from toolpath.optimize.baselines import MEALPY_CLASSES, encoding_shift, run_mealpy
+from toolpath.optimize.nacoa import NACOA, NACOASettings, initial_population
+from toolpath.optimize.problem import SmoothingProblem
+from toolpath.optimize.result import SmoothingResult
+from toolpath.optimize.smoothers import bezier_fit, mean_filter
+
+SMOOTHERS = ("mean_filter", "bezier")
+METHODS = (*SMOOTHERS, "nacoa", *MEALPY_CLASSES)
+ENCODINGS = ("plain", "shifted")
+UNTOUCHED = "none"
+
+
+def problem_from(window: np.ndarray, cfg: Mapping, mode: str) -> SmoothingProblem:
+    return SmoothingProblem(window, mode=mode, tolerance=cfg["tolerance"], weight=cfg["penalty_weight"],
+                            reach=cfg["reach"])
+
+
+def nacoa_settings(cfg: Mapping, tolerance: float) -> NACOASettings:
+    """NACOA's settings from the config; its random term and first population span the tolerance."""
+    values = dict(cfg["nacoa"])
+    values.setdefault("perturbation", tolerance)
+    return NACOASettings(**values)
+
+
+def nacoa_budget(settings: NACOASettings) -> int:
+    """Evaluations NACOA spends (first population, HBA phase, G generations of candidate + gradient)."""
+    per_gradient = {"exact": 1, "off": 0}.get(settings.gradient)
+    if per_gradient is None:
+        raise ValueError("the mealpy budget is defined for NACOA with the exact gradient (or none)")
+    n = settings.population
+    return n * (1 + settings.hba_generations) + n * settings.generations * (1 + per_gradient)
+
+
+def search_box(problem: SmoothingProblem, cfg: Mapping) -> float:
+    """Half-width of the box mealpy searches per coordinate: the tolerance in ``bound`` mode (the tube
+    is inside that box), ``cfg.box`` mm otherwise."""
+    return problem.tolerance if problem.mode == "bound" else float(cfg["box"])
+
+
+def smooth(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int,
+           encoding: str = "plain") -> SmoothingResult:
+    """Run ``method`` on one window under fidelity ``mode``; ``encoding`` applies to mealpy methods."""
+    if method not in METHODS:
+        raise ValueError(f"unknown smoothing method {method!r}; known: {', '.join(METHODS)}")
+    if encoding not in ENCODINGS:
+        raise ValueError(f"unknown encoding {encoding!r}; known: {', '.join(ENCODINGS)}")
+    problem = problem_from(window, cfg, mode)
+    if method in SMOOTHERS:
+        began = time.perf_counter()
+        raw = (mean_filter(problem.window, **cfg["mean_filter"]) if method == "mean_filter"
+               else bezier_fit(problem.window, **cfg["bezier"]))
+        points = problem.points(problem.displacement(raw))
+        return SmoothingResult(points=points, objective=float(problem.score(points)), evaluations=1,
+                               seconds=time.perf_counter() - began)
+    settings = nacoa_settings(cfg, problem.tolerance)
+    if method == "nacoa":
+        return NACOA(settings).solve(problem, seed)
+    box = search_box(problem, cfg)
+    start = initial_population(problem, settings, np.random.default_rng(seed))
+    shift = encoding_shift(problem, box, seed + 1) if encoding == "shifted" else None
+    return run_mealpy(method, problem, population=settings.population, budget=nacoa_budget(settings), box=box,
+                      seed=seed, start=start, shift=shift)
+
+
+def dispatch(category: int, mapping: Mapping) -> str:
+    """Sec. 5.3: the method for a window of Table 1 ``category``; category 1 is left untouched."""
+    if category == 1:
+        return UNTOUCHED
+    key = category if category in mapping else str(category)
+    if key not in mapping:
+        raise ValueError(f"optimise.dispatch has no method for category {category}")
+    method = mapping[key]
+    if method not in (*METHODS, UNTOUCHED):
+        raise ValueError(f"optimise.dispatch maps category {category} to unknown method {method!r}")
+    return method
