@@ -45,11 +45,11 @@ def write_json(data: dict, path: Path) -> None:
     path.write_text(json.dumps(_finite(data), indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
-def progress(items: Iterable[T], label: str, total: int | None = None) -> Iterator[T]:
-    """Iterate with a rich progress bar on stderr (``total`` for iterators without a length)."""
+def progress(items: list[T], label: str) -> Iterator[T]:
+    """Iterate with a rich progress bar on stderr."""
     columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=False) as bar:
-        task = bar.add_task(label, total=len(items) if total is None else total)
+        task = bar.add_task(label, total=len(items))
         for item in items:
             yield item
             bar.advance(task)

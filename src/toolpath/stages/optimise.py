@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import csv
 import multiprocessing
-from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -86,7 +85,9 @@ def main(argv: list[str] | None = None) -> None:
 
         # spawn, not fork: the parent holds MLflow's threads; results do not depend on the worker count
         with ProcessPoolExecutor(ocfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
-            outputs = list(progress(_ordered(pool, jobs), f"optimise {args.shape}", total=len(jobs)))
+            # results in submission order, so the output does not depend on which worker finished first
+            futures = [pool.submit(_run, job) for job in jobs]
+            outputs = [future.result() for future in progress(futures, f"optimise {args.shape}")]
         rows = [o[0] for o in outputs]
         mapping = {int(k): v for k, v in ocfg["dispatch"].items()}
         categories = sorted({c for _, c, _ in chosen})
@@ -114,14 +115,6 @@ def main(argv: list[str] | None = None) -> None:
                               step=step)
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.csv"))
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.json"))
-
-
-def _ordered(pool: ProcessPoolExecutor, jobs: list) -> Iterator:
-    """Submit every job, yield the results in submission order (so the output does not depend on
-    which worker finished first)."""
-    futures = [pool.submit(_run, job) for job in jobs]
-    for future in futures:
-        yield future.result()
 
 
 def _write_rows(rows: list[dict], path: Path) -> None:

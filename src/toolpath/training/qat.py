@@ -1,0 +1,139 @@
+"""Quantization-aware training to INT8 through PT2E (torch.export + torchao), Sec. 5.1.2 "Inference Time".
+
+Route (``../shared/platform-notes.md``): ``torch.export`` with a dynamic batch dimension ->
+``prepare_qat_pt2e`` with the x86 inductor quantizer (QAT config: per-channel INT8 weights, per-tensor
+INT8 activations with fake quantization) -> train with the same loop and schedule as FP32 -> observers
+frozen for the last epoch(s), so the final epochs fine-tune against fixed scales -> ``convert_pt2e``.
+The converted graph is exported again and saved as ``.pt2``; it reloads to identical outputs.
+
+Run eagerly, the converted graph is a *reference* INT8 graph: every quantized Linear / Conv1d is a
+dequantize -> float op -> quantize sequence that simulates INT8 arithmetic exactly; real INT8 kernels
+come from compiling it with inductor (``torch._inductor.config.freezing = True``), which the benchmark
+does.  :func:`op_precision` lists which compute ops are INT8 and which stay float (RNN, LSTM,
+normalisers, the attention's products), per model, for the report.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from toolpath.training.loop import EpochRecord, TrainSettings, fit_network
+
+# compute ops we classify; the rest (reshapes, activations, pooling, quant/dequant) carry no weights
+COMPUTE_OPS = ("linear", "conv1d", "conv2d", "matmul", "bmm", "mm", "addmm", "einsum", "rnn_tanh", "lstm",
+               "layer_norm", "group_norm", "batch_norm")
+
+
+def _dynamic_batch(max_batch: int = 1 << 16) -> tuple[dict, ...]:
+    return ({0: torch.export.Dim("batch", min=1, max=max_batch)},)
+
+
+def export(net: nn.Module, example: torch.Tensor) -> torch.export.ExportedProgram:
+    """``torch.export`` with a dynamic batch dimension (the example needs a batch of at least 2)."""
+    return torch.export.export(net, (example,), dynamic_shapes=_dynamic_batch())
+
+
+def prepare(net: nn.Module, example: torch.Tensor) -> torch.fx.GraphModule:
+    """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer."""
+    from torchao.quantization.pt2e import allow_exported_model_train_eval
+    from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
+    from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
+        X86InductorQuantizer,
+        get_default_x86_inductor_quantization_config,
+    )
+
+    net.eval()
+    quantizer = X86InductorQuantizer().set_global(get_default_x86_inductor_quantization_config(is_qat=True))
+    prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
+    # .train() / .eval() on an exported graph swap dropout / batch-norm ops the supported way, so the
+    # FP32 training loop runs on it unchanged
+    allow_exported_model_train_eval(prepared)
+    return prepared
+
+
+def freeze_observers(prepared: torch.fx.GraphModule) -> None:
+    """Stop updating quantization scales and zero points (fake quantization stays on)."""
+    from torchao.quantization.pt2e import disable_observer
+
+    prepared.apply(disable_observer)
+
+
+def convert(prepared: torch.fx.GraphModule) -> torch.fx.GraphModule:
+    from torchao.quantization.pt2e import allow_exported_model_train_eval
+    from torchao.quantization.pt2e.quantize_pt2e import convert_pt2e
+
+    prepared.eval()
+    return allow_exported_model_train_eval(convert_pt2e(prepared))
+
+
+@dataclass
+class QATResult:
+    model: torch.fx.GraphModule
+    history: list[EpochRecord] = field(default_factory=list)
+
+
+def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings, X_val: np.ndarray,
+              y_val: np.ndarray, freeze_last: int = 1,
+              on_epoch: Callable[[EpochRecord], None] | None = None) -> QATResult:
+    """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
+
+    ``settings`` is the FP32 schedule (learning rate, decay, batch) with the QAT epoch count; early
+    stopping is off (a restored best state would mix observer states).  Observers freeze after
+    epoch ``epochs - freeze_last``.
+    """
+    if settings.epochs < 1 or not 0 <= freeze_last <= settings.epochs:
+        raise ValueError("QAT needs epochs >= 1 and 0 <= freeze_last <= epochs")
+    example = torch.as_tensor(X[:2], dtype=torch.float32)
+    prepared = prepare(net, example)
+    if freeze_last == settings.epochs:
+        freeze_observers(prepared)
+
+    def hook(record: EpochRecord) -> None:
+        if record.epoch == settings.epochs - freeze_last:
+            freeze_observers(prepared)
+        if on_epoch is not None:
+            on_epoch(record)
+
+    fixed = TrainSettings(**{**settings.__dict__, "patience": None, "aux_loss_weight": 0.0})
+    history = fit_network(prepared, X, y, fixed, X_val, y_val, on_epoch=hook)
+    return QATResult(convert(prepared), history)
+
+
+def save(model: torch.fx.GraphModule, example: torch.Tensor, path: Path) -> int:
+    """Export the converted graph and save it as ``.pt2``; returns the file size in bytes."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.export.save(export(model, example), str(path))
+    return os.path.getsize(path)
+
+
+def load(path: Path) -> nn.Module:
+    """A saved INT8 model, callable on (B, 50, 2) float32 windows."""
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{path}: INT8 model not found; run `dvc repro qat` first")
+    from torchao.quantization.pt2e import allow_exported_model_train_eval
+
+    return allow_exported_model_train_eval(torch.export.load(str(path)).module())
+
+
+def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
+    """Count the converted graph's compute ops by precision: ``int8`` when an input comes straight
+    from a dequantize node (the reference pattern of a quantized op), else ``float``."""
+    counts: dict[str, Counter] = {"int8": Counter(), "float": Counter()}
+    for node in model.graph.nodes:
+        if node.op != "call_function":
+            continue
+        name = str(node.target).split(".")[-2] if "." in str(node.target) else str(node.target)
+        if name not in COMPUTE_OPS:
+            continue
+        from_dequant = any(getattr(a, "op", None) == "call_function" and "dequantize" in str(a.target)
+                           for a in node.args[:2] if isinstance(a, torch.fx.Node))
+        counts["int8" if from_dequant else "float"][name] += 1
+    return {k: dict(sorted(v.items())) for k, v in counts.items()}
