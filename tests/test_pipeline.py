@@ -53,8 +53,22 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     for shape in ("gear", "pentagram", "maple_leaf"):
         smoothing = json.loads((work / f"reports/metrics/optimise/{shape}.json").read_text())
         assert smoothing["methods"]["bound"]["plain"]["nacoa"]["max_deviation_mm"] <= 0.05 + 1e-9
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        quantized = json.loads((work / f"reports/metrics/qat/{shape}.json").read_text())
+        for model in ("mcrl", "mlp"):  # the smoke profile's QAT models
+            assert quantized[model]["status"] == "ok" and quantized[model]["reload_identical"]
+            assert (work / f"models/int8/{shape}/{model}.pt2").is_file()
+    inference = json.loads((work / "reports/metrics/inference.json").read_text())
+    assert set(inference) == {"setup", "models", "rule", "mcrl_branch_profile_ms", "paper_table4_s"}
+    for model in ("mcrl", "mlp"):
+        entry = inference["models"][model]
+        for variant in ("fp32_eager", "int8_eager"):
+            assert set(entry[variant]) == {"latency_b1_ms", "s_per_batch", "windows_per_s", "windows_per_s_large_batch"}
+        assert entry["fp32_file_bytes"] > 0 and entry["int8_file_bytes"] > 0 and "int8_speedup_eager" in entry
+        assert set(entry["test_split_s"]) == {"gear", "pentagram", "maple_leaf"}
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
     assert "reports/metrics/optimise/gear.json" in shown
+    assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)

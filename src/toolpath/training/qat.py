@@ -71,7 +71,20 @@ def convert(prepared: torch.fx.GraphModule) -> torch.fx.GraphModule:
     from torchao.quantization.pt2e.quantize_pt2e import convert_pt2e
 
     prepared.eval()
-    return allow_exported_model_train_eval(convert_pt2e(prepared))
+    return allow_exported_model_train_eval(_drop_unused(convert_pt2e(prepared)))
+
+
+def _drop_unused(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
+    """Remove the FP32 weights the converted graph no longer reads (it reads their INT8 copies), so
+    the saved ``.pt2`` does not carry both."""
+    model.graph.eliminate_dead_code()
+    model.recompile()
+    used = {node.target for node in model.graph.nodes if node.op == "get_attr"}
+    for name in [n for n, _ in (*model.named_parameters(), *model.named_buffers())]:
+        if name not in used:
+            owner, _, attr = name.rpartition(".")
+            delattr(model.get_submodule(owner) if owner else model, attr)
+    return model
 
 
 @dataclass
@@ -89,12 +102,10 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
     stopping is off (a restored best state would mix observer states).  Observers freeze after
     epoch ``epochs - freeze_last``.
     """
-    if settings.epochs < 1 or not 0 <= freeze_last <= settings.epochs:
-        raise ValueError("QAT needs epochs >= 1 and 0 <= freeze_last <= epochs")
+    if not 0 <= freeze_last < settings.epochs:
+        raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
     example = torch.as_tensor(X[:2], dtype=torch.float32)
     prepared = prepare(net, example)
-    if freeze_last == settings.epochs:
-        freeze_observers(prepared)
 
     def hook(record: EpochRecord) -> None:
         if record.epoch == settings.epochs - freeze_last:
@@ -121,6 +132,20 @@ def load(path: Path) -> nn.Module:
     from torchao.quantization.pt2e import allow_exported_model_train_eval
 
     return allow_exported_model_train_eval(torch.export.load(str(path)).module())
+
+
+def tensor_bytes(model: nn.Module) -> dict[str, int]:
+    """Bytes of the model's tensors (parameters, buffers, frozen constants) by dtype: what the weights
+    occupy, apart from the fixed overhead of a ``.pt2`` archive (serialised graph and metadata)."""
+    tensors = {id(t): t for t in (*model.parameters(), *model.buffers())}
+    for value in vars(model).values():
+        if isinstance(value, torch.Tensor):
+            tensors[id(value)] = value
+    out: dict[str, int] = {}
+    for t in tensors.values():
+        key = str(t.dtype).replace("torch.", "")
+        out[key] = out.get(key, 0) + t.numel() * t.element_size()
+    return dict(sorted(out.items()))
 
 
 def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:

@@ -1,0 +1,112 @@
+"""Inference timing for Table 4: latency, throughput and whole-split time, measured honestly.
+
+Protocol: torch threads fixed, warm-up calls first, then repetitions *interleaved* across every
+variant (so drift on the machine hits all alike), the median reported.  Variants per model: FP32
+eager, FP32 compiled (inductor), INT8 eager (the converted reference graph: dequantize -> float op ->
+quantize, which simulates INT8 exactly but runs no INT8 kernel) and INT8 compiled (inductor with
+freezing: real INT8 kernels).  :func:`branch_profile` splits an MCRL forward pass by branch.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable
+from contextlib import nullcontext
+
+import torch
+from torch import nn
+
+Runner = Callable[[torch.Tensor], object]
+
+
+def compiled(model: nn.Module) -> nn.Module:
+    """``torch.compile`` with inductor's weight freezing (needed for the INT8 fusions); dynamic batch."""
+    import torch._inductor.config as inductor_config
+
+    inductor_config.freezing = True
+    return torch.compile(model, dynamic=True)
+
+
+def timed(runners: dict[str, Runner], inputs: dict[str, torch.Tensor], repeats: int, warmup: int = 2,
+          progress: Callable[[], None] | None = None) -> dict[str, dict[str, float]]:
+    """Median seconds of every runner on every input, with warm-up and interleaved repetitions."""
+    with torch.inference_mode():
+        for run in runners.values():
+            for x in inputs.values():
+                for _ in range(warmup):
+                    run(x)
+        samples: dict[tuple[str, str], list[float]] = {(r, i): [] for r in runners for i in inputs}
+        for _ in range(repeats):
+            for r, run in runners.items():
+                for i, x in inputs.items():
+                    start = time.perf_counter()
+                    run(x)
+                    samples[(r, i)].append(time.perf_counter() - start)
+            if progress is not None:
+                progress()
+    out: dict[str, dict[str, float]] = {}
+    for (r, i), values in samples.items():
+        out.setdefault(r, {})[i] = statistics.median(values)
+    return out
+
+
+# MCRL's parts, in the order of its forward pass (module attribute names of toolpath.models.MCRL)
+MCRL_GROUPS = {"input (normalise)": ("prepare",), "attention branches (linear, resample, attention)": ("branches",),
+               "MLP": ("mlp",), "CNN": ("conv", "pool", "cnn_fc", "dropout"), "RNN": ("rnns",),
+               "LSTM": ("lstms",), "heads and fusion": ("heads", "fusion")}
+
+
+def branch_profile(model: nn.Module, x: torch.Tensor, repeats: int = 20) -> dict[str, float]:
+    """Median seconds per MCRL part over ``repeats`` forward passes (forward hooks on each part's
+    modules), plus ``total`` and ``unattributed`` (concatenations, interpolation outside modules)."""
+    spent: dict[str, float] = {}
+    starts: dict[int, float] = {}
+    handles = []
+
+    def attach(module: nn.Module, group: str) -> None:
+        def pre(mod, _args):
+            starts[id(mod)] = time.perf_counter()
+
+        def post(mod, _args, _out):
+            spent[group] = spent.get(group, 0.0) + time.perf_counter() - starts.pop(id(mod))
+
+        handles.append(module.register_forward_pre_hook(pre))
+        handles.append(module.register_forward_hook(post))
+
+    for group, names in MCRL_GROUPS.items():
+        for name in names:
+            part = getattr(model, name)
+            for module in (part if isinstance(part, nn.ModuleList) else [part]):
+                attach(module, group)
+    runs: dict[str, list[float]] = {g: [] for g in [*MCRL_GROUPS, "total"]}
+    try:
+        with torch.inference_mode():
+            model(x)  # warm-up
+            for _ in range(repeats):
+                spent.clear()
+                start = time.perf_counter()
+                model(x)
+                runs["total"].append(time.perf_counter() - start)
+                for g in MCRL_GROUPS:
+                    runs[g].append(spent.get(g, 0.0))
+    finally:
+        for h in handles:
+            h.remove()
+    result = {g: statistics.median(v) for g, v in runs.items()}
+    result["unattributed"] = max(result["total"] - sum(result[g] for g in MCRL_GROUPS), 0.0)
+    return result
+
+
+def threads(count: int):
+    """Context in which torch uses ``count`` intra-op threads (restored afterwards)."""
+    previous = torch.get_num_threads()
+
+    class _Threads:
+        def __enter__(self):
+            torch.set_num_threads(count)
+
+        def __exit__(self, *exc):
+            torch.set_num_threads(previous)
+
+    return _Threads() if count else nullcontext()

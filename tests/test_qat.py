@@ -1,0 +1,82 @@
+"""QAT through PT2E on an easy split, the saved INT8 graph, and the benchmark helpers (no torch.compile)."""
+
+import numpy as np
+import pytest
+import torch
+
+import toolpath.models  # noqa: F401  (import order: models before training)
+from toolpath.models import MCRL, TorchClassifier
+from toolpath.training import qat
+from toolpath.training.bench import MCRL_GROUPS, branch_profile, timed
+from toolpath.training.loop import TrainSettings, predict_logits
+
+
+def easy_split(n=192, seed=0):
+    """Straight lines (class index 0) against zig-zags (class index 3), at random scales and slopes."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 10, 50)
+    X, y = [], []
+    for k in range(n):
+        rough = k % 2
+        pts = np.column_stack([t, (1.5 * (np.arange(50) % 2) if rough else np.zeros(50))])
+        angle = rng.uniform(-0.3, 0.3)
+        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        X.append(rng.uniform(0.5, 2) * pts @ rot.T)
+        y.append(3 * rough)
+    return np.asarray(X, dtype=np.float32), np.asarray(y)
+
+
+@pytest.fixture(scope="module")
+def trained_mlp():
+    X, y = easy_split()
+    settings = {"lr": 3e-3, "epochs": 15, "batch_size": 32, "decay_steps": 1000, "seed": 1}
+    clf = TorchClassifier({"_target_": "toolpath.models.MLP"}, settings).fit(X, y + 1)
+    return clf, X, y
+
+
+def test_qat_keeps_accuracy_saves_int8_and_reloads_identically(trained_mlp, tmp_path):
+    clf, X, y = trained_mlp
+    Xt = torch.as_tensor(X)
+    fp32 = float((predict_logits(clf.network_, Xt).argmax(1).numpy() == y).mean())
+    assert fp32 >= 0.95  # the split is easy: the tolerance below is meaningful
+    result = qat.train_qat(clf.network_, X, y, TrainSettings(lr=3e-4, epochs=2, batch_size=32, seed=2), X, y,
+                           freeze_last=1)
+    int8 = float((predict_logits(result.model, Xt).argmax(1).numpy() == y).mean())
+    assert int8 >= fp32 - 0.02  # stated tolerance: 2 points on this split
+    ops = qat.op_precision(result.model)
+    assert ops["int8"].get("linear", 0) == 5 and not ops["float"]  # every MLP layer runs INT8
+    size = qat.save(result.model, Xt[:2], tmp_path / "mlp.pt2")
+    assert size > 0
+    reloaded = qat.load(tmp_path / "mlp.pt2")
+    assert torch.equal(predict_logits(reloaded, Xt), predict_logits(result.model, Xt))
+    tensors = qat.tensor_bytes(result.model)
+    assert tensors["int8"] > 3 * tensors.get("float32", 0)  # the FP32 weight copies are gone
+
+
+def test_qat_refuses_freezing_before_observers_saw_data(trained_mlp):
+    clf, X, y = trained_mlp
+    with pytest.raises(ValueError, match="observers must see data"):
+        qat.train_qat(clf.network_, X, y, TrainSettings(epochs=1), X, y, freeze_last=1)
+
+
+def test_missing_int8_model_has_a_clear_error(tmp_path):
+    with pytest.raises(FileNotFoundError, match="dvc repro qat"):
+        qat.load(tmp_path / "nothing.pt2")
+
+
+def test_mcrl_keeps_rnn_and_lstm_float_after_qat():
+    X, y = easy_split(64)
+    net = MCRL().eval()
+    result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1)
+    ops = qat.op_precision(result.model)
+    assert ops["int8"]["linear"] >= 20 and ops["float"]["lstm"] == 3 and ops["float"]["rnn_tanh"] == 3
+
+
+def test_timed_and_branch_profile_report_every_part():
+    net = MCRL().eval()
+    x = torch.randn(8, 50, 2).cumsum(1)
+    out = timed({"a": net, "b": lambda v: v.sum()}, {"one": x[:1], "many": x}, repeats=2, warmup=1)
+    assert set(out) == {"a", "b"} and set(out["a"]) == {"one", "many"} and out["a"]["many"] > 0
+    profile = branch_profile(net, x, repeats=2)
+    assert set(profile) == {*MCRL_GROUPS, "total", "unattributed"}
+    assert sum(profile[g] for g in MCRL_GROUPS) <= profile["total"] * 1.01
