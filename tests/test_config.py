@@ -1,5 +1,6 @@
 """conf/ is the one source of truth: params.yaml is its composition, dvc.yaml reads existing keys."""
 
+import json
 import re
 
 import pytest
@@ -75,3 +76,23 @@ def test_committed_label_metrics_back_the_readme_claims():
         metrics = yaml.safe_load((REPO / "reports" / "metrics" / "label" / f"{shape}.json").read_text())
         assert metrics["windows"] > 5000, shape
         assert min(metrics["class_share"].values()) > 0.05, shape
+
+
+def test_committed_optimise_metrics_back_the_readme_claims():
+    """README, "Where smoothing stands": each claim checked against the committed default-profile metrics."""
+    mealpy = ("coa", "hba", "avoa", "scso", "esoa", "pso")
+    for shape in OmegaConf.load(REPO / "params.yaml").shapes:
+        summary = json.loads((REPO / "reports" / "metrics" / "optimise" / f"{shape}.json").read_text())
+        for stats in summary["methods"]["bound"].values():  # both encodings, every method
+            for method in stats.values():
+                assert method["max_deviation_mm"] <= 0.05 + 1e-9, shape
+        none = summary["methods"]["none"]["plain"]
+        assert none["nacoa"]["mean_reduction_pct"] < none["mean_filter"]["mean_reduction_pct"], shape
+        for mode in ("none", "bound"):
+            head = summary["head_to_head"][mode]
+            best_baseline = min(head[f"{m}{e}"]["mean_fitness_after"] for m in mealpy for e in ("", "@shifted"))
+            assert head["nacoa"]["mean_fitness_after"] < best_baseline, (shape, mode)
+            assert head["esoa@shifted"]["mean_reduction_pct"] < head["esoa"]["mean_reduction_pct"], (shape, mode)
+    deviations = [json.loads((REPO / "reports/metrics/optimise" / f"{s}.json").read_text())["methods"]["none"]["plain"]
+                  ["mean_filter"]["max_deviation_mm"] for s in ("gear", "pentagram", "maple_leaf")]
+    assert max(deviations) > 0.2
