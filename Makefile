@@ -35,9 +35,11 @@ test: install
 test-fast: install
 	$(VENV)/bin/pytest -m "not slow"
 
-## Benchmarks (speed and memory figures live here, never in tests): writes reports/bench/*.json.
+## Benchmarks (speed and memory figures live here, never in tests): writes reports/bench/*.json, then
+## re-measures Table 4 (the `benchmark` stage's reports/metrics/inference.json; needs `make repro` first).
 bench: install
 	$(PY) -m toolpath.bench
+	$(PY) -m toolpath.stages.benchmark
 
 params: install
 	$(PY) -m toolpath.config
