@@ -14,7 +14,8 @@ from toolpath.optimize.result import SmoothingResult
 # Table 6's complexity column: the paper's entries where it gives one, ours (same notation: t
 # iterations, p population, d dimension, n points) for the rest.
 COMPLEXITY = {
-    "nacoa": "O(n^2) + O(t p d)", "scso": "O(t p d)", "esoa": "O(t p d)", "avoa": "O(t p) + O(t p d)",
+    "nacoa": "O(n^2) + O(t p d)", "nacoa_permute": "O(n^2) + O(t p d)",
+    "scso": "O(t p d)", "esoa": "O(t p d)", "avoa": "O(t p) + O(t p d)",
     "coa": "O(t p d)", "hba": "O(t p d)", "pso": "O(t p d)", "mean_filter": "O(w n)", "bezier": "O(n k^2)",
 }
 PAPER_REDUCTION = {"mean_filter": 54.0, "bezier": 67.0, "nacoa": 78.0}  # Sec. 5.2.4, per cent

@@ -5,7 +5,8 @@
 
 * ``mean_filter`` and ``bezier`` are one-shot smoothers; in ``bound`` mode their result is projected
   into the tolerance tube like every optimiser's candidates, so no method leaves it;
-* ``nacoa`` is :class:`toolpath.optimize.nacoa.NACOA`;
+* ``nacoa`` is :class:`toolpath.optimize.nacoa.NACOA`; ``nacoa_permute`` the same with the paper's
+  permuting initialisation;
 * ``coa``, ``hba``, ``avoa``, ``scso``, ``esoa``, ``pso`` are mealpy's, given NACOA's budget of evaluations
   (computed from its settings), its first population and the same seed.
 """
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
@@ -24,7 +26,10 @@ from toolpath.optimize.result import SmoothingResult
 from toolpath.optimize.smoothers import bezier_fit, mean_filter
 
 SMOOTHERS = ("mean_filter", "bezier")
-METHODS = (*SMOOTHERS, "nacoa", *MEALPY_CLASSES)
+# "nacoa_permute" is NACOA with the paper's initialisation as written (Sec. 4.2.1: interior points
+# permuted), run beside the default to show what that does to a toolpath
+METHODS = (*SMOOTHERS, "nacoa", "nacoa_permute", *MEALPY_CLASSES)
+BASELINE_ONLY = ("nacoa_permute", *MEALPY_CLASSES)  # run on the baseline windows only
 ENCODINGS = ("plain", "shifted")
 UNTOUCHED = "none"
 
@@ -74,6 +79,8 @@ def smooth(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int,
     settings = nacoa_settings(cfg, problem.tolerance)
     if method == "nacoa":
         return NACOA(settings).solve(problem, seed)
+    if method == "nacoa_permute":
+        return NACOA(replace(settings, init="permute")).solve(problem, seed)
     box = search_box(problem, cfg)
     start = initial_population(problem, settings, np.random.default_rng(seed))
     shift = encoding_shift(problem, box, seed + 1) if encoding == "shifted" else None

@@ -23,7 +23,7 @@ from omegaconf import OmegaConf
 from toolpath import config, tracking
 from toolpath.optimize.baselines import MEALPY_CLASSES
 from toolpath.optimize.evaluate import ROW_FIELDS, convergence, summarise, timing, window_row
-from toolpath.optimize.methods import METHODS, dispatch, smooth
+from toolpath.optimize.methods import BASELINE_ONLY, METHODS, dispatch, smooth
 from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import load_windows, progress, shape_arg, write_json
 
@@ -44,7 +44,8 @@ def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int
 
 
 def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
-    """Every (window, mode, method, encoding) to run; mealpy methods only on the baseline windows."""
+    """Every (window, mode, method, encoding) to run; mealpy methods (both encodings) and NACOA with the
+    paper's permuting initialisation only on the baseline windows."""
     unknown = [m for m in ocfg["methods"] if m not in METHODS]
     if unknown:
         raise SystemExit(f"params.yaml: optimise.methods has unknown method(s) {', '.join(unknown)}; "
@@ -53,7 +54,7 @@ def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
     for index, category, baselines in chosen:
         for mode in ocfg["modes"]:
             for method in ocfg["methods"]:
-                if method in MEALPY_CLASSES and not baselines:
+                if method in BASELINE_ONLY and not baselines:
                     continue
                 for encoding in ocfg["encodings"] if method in MEALPY_CLASSES else ["plain"]:
                     tasks.append({"window": index, "category": category, "baseline_window": baselines,
