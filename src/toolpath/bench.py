@@ -140,11 +140,8 @@ def main(argv: list[str] | None = None) -> int:
 
 @contextlib.contextmanager
 def _single_thread():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # scikit-learn depends on threadpoolctl, so this is only a safety net
-        yield
-        return
+    from threadpoolctl import threadpool_limits  # a scikit-learn dependency, so always installed
+
     with threadpool_limits(limits=1):
         yield
 
