@@ -20,6 +20,7 @@ from toolpath.models import (
     random_rotation_reflection,
 )
 from toolpath.models.__main__ import parameter_count
+from toolpath.models.inputs import Prepare, turning_features
 
 CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "model" / f"{n}.yaml")) for n in MODEL_NAMES}
 
@@ -89,6 +90,35 @@ def test_input_preparation_keeps_local_curvature_and_normalises():
     assert torch.allclose(prepared.mean(dim=1), torch.zeros(20, 2), atol=1e-5)
     assert torch.allclose(prepared.pow(2).sum(2).mean(1), torch.ones(20), atol=1e-5)
     assert torch.isfinite(prepare(torch.zeros(2, 50, 2))).all()  # degenerate window: no NaN
+
+
+def test_turning_features_by_hand():
+    """Square corner: one right-angle turn (1, +1) at the corner; straight line: zeros; circle: a
+    constant turn of 2 pi / k per point; a repeated point counts as no turn (the rule's convention)."""
+    corner = torch.tensor([[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [2.0, 2.0]]])
+    f = turning_features(corner)
+    assert f.shape == (1, 5, 2)
+    assert torch.allclose(f[0], torch.tensor([[0, 0], [0, 0], [1.0, 1.0], [0, 0], [0, 0]]))
+    line = torch.stack([torch.linspace(0, 9, 50, dtype=torch.float64),
+                        torch.linspace(3, -6, 50, dtype=torch.float64)], dim=1)[None]
+    assert torch.count_nonzero(turning_features(line).abs() > 1e-6) == 0
+    k = 40
+    t = torch.arange(50, dtype=torch.float64) * 2 * torch.pi / k
+    circle = torch.stack([torch.cos(t), torch.sin(t)], dim=1)[None] * 7.0
+    f = turning_features(circle)[0, 1:-1]
+    assert torch.allclose(f[:, 0], torch.full((48,), 1 - np.cos(2 * np.pi / k), dtype=torch.float64))
+    assert torch.allclose(f[:, 1], torch.full((48,), np.sin(2 * np.pi / k), dtype=torch.float64))  # CCW: +
+    repeated = torch.tensor([[[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0]]])
+    assert torch.count_nonzero(turning_features(repeated)) == 0
+
+
+def test_turning_features_sum_to_local_curvature_at_any_scale_and_rotation():
+    x = windows(20).double()
+    moved = random_rotation_reflection(x, torch.Generator().manual_seed(2)) * 37.0 + 500.0
+    assert np.allclose(turning_features(x)[..., 0].sum(1).numpy(), local_curvature(x.numpy()), atol=1e-9)
+    assert torch.allclose(turning_features(moved)[..., 0], turning_features(x)[..., 0], atol=1e-9)
+    with pytest.raises(ValueError, match="inputs must be one of"):
+        Prepare("raw")
 
 
 def test_rotation_reflection_augmentation_keeps_local_curvature():

@@ -57,9 +57,10 @@ class MCRL(nn.Module):
     def __init__(self, attention_width: int = 16, mlp_hidden: tuple[int, ...] = (128, 64, 32, 16),
                  conv_channels: int = 32, cnn_hidden: int = 512, rnn_hidden: tuple[int, ...] = (128, 64, 64),
                  lstm_hidden: tuple[int, ...] = (64, 32, 32), dropout: float = 0.2, window: int = 50,
-                 points: tuple[int, int, int, int] = (50, 30, 20, 10), classes: int = 4) -> None:
+                 points: tuple[int, int, int, int] = (50, 30, 20, 10), classes: int = 4,
+                 inputs: str = "turning") -> None:
         super().__init__()
-        self.prepare = Prepare()
+        self.prepare = Prepare(inputs)
         self.branches = nn.ModuleList(_Branch(p, attention_width) for p in points)
         dims = [points[0] * 2, *mlp_hidden]
         self.mlp = nn.Sequential(*[m for a, b in zip(dims[:-1], dims[1:], strict=True)

@@ -22,9 +22,10 @@ class ConvMixer1d(nn.Module):
     BatchNorm]; global average pooling; linear head.
     """
 
-    def __init__(self, dim: int = 192, depth: int = 8, kernel: int = 9, patch: int = 2, classes: int = 4) -> None:
+    def __init__(self, dim: int = 192, depth: int = 8, kernel: int = 9, patch: int = 2, classes: int = 4,
+                 inputs: str = "turning") -> None:
         super().__init__()
-        self.prepare = Prepare()
+        self.prepare = Prepare(inputs)
         self.embed = nn.Sequential(nn.Conv1d(2, dim, patch, stride=patch), nn.GELU(), nn.BatchNorm1d(dim))
         self.depthwise = nn.ModuleList(
             nn.Sequential(nn.Conv1d(dim, dim, kernel, groups=dim, padding="same"), nn.GELU(), nn.BatchNorm1d(dim))
@@ -76,9 +77,9 @@ class ConvNeXt1d(nn.Module):
     """
 
     def __init__(self, dims: tuple[int, ...] = (48, 96, 144), depths: tuple[int, ...] = (2, 2, 2),
-                 classes: int = 4) -> None:
+                 classes: int = 4, inputs: str = "turning") -> None:
         super().__init__()
-        self.prepare = Prepare()
+        self.prepare = Prepare(inputs)
         self.stem = nn.Sequential(nn.Conv1d(2, dims[0], 2, stride=2), _ChannelNorm(dims[0]))
         stages: list[nn.Module] = []
         for i, (dim, depth) in enumerate(zip(dims, depths, strict=True)):
@@ -147,10 +148,10 @@ class MaxViT1d(nn.Module):
     """
 
     def __init__(self, dim: int = 64, depth: int = 3, heads: int = 4, partition: int = 5, window: int = 50,
-                 classes: int = 4) -> None:
+                 classes: int = 4, inputs: str = "turning") -> None:
         super().__init__()
 
-        self.prepare = Prepare()
+        self.prepare = Prepare(inputs)
         self.stem = nn.Conv1d(2, dim, 3, stride=2, padding=1)
         tokens = (window + 1) // 2
         if tokens % partition:

@@ -1,0 +1,195 @@
+"""Smoothing side of the report: Table 6, the curvature reductions of Sec. 5.2.4, Figs. 8-11 and
+the reduction / deviation trade-off the paper omits.
+
+Inputs are the ``optimise`` stage's outputs, loaded by the caller: per shape the summary JSON
+(``metrics``), the timing JSON (``timing``), the per-window CSV rows (``rows``: dicts of strings)
+and the smoothed windows (``smoothed``: arrays ``points``, ``window``, ``method``, ``mode``,
+``encoding``) beside the original windows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from toolpath.geometry.curvature import local_curvature  # noqa: E402
+from toolpath.optimize.evaluate import COMPLEXITY, PAPER_REDUCTION, PAPER_TABLE6, reduction_pct  # noqa: E402
+from toolpath.reports.tables import Table  # noqa: E402
+
+PAPER_METHODS = ("mean_filter", "bezier", "nacoa")
+Y_FLOOR = -50.0  # lowest reduction drawn in the trade-off figure (per cent)  # Figs. 9-11 and Sec. 5.2.4
+METHOD_LABEL = {"mean_filter": "mean filter", "bezier": "Bezier", "nacoa": "NACOA",
+                "nacoa_permute": "NACOA (permute init)", "coa": "COA", "hba": "HBA", "avoa": "AVOA",
+                "scso": "SCSO", "esoa": "ESOA", "pso": "PSO"}
+
+
+def label(method: str) -> str:
+    base, _, encoding = method.partition("@")
+    return METHOD_LABEL.get(base, base) + (f" ({encoding})" if encoding else "")
+
+
+def _mean(values: Sequence[float]) -> float:
+    return float(np.mean(values)) if len(values) else float("nan")
+
+
+def table6(metrics: Mapping[str, Mapping], timing: Mapping[str, Mapping]) -> Table:
+    """Table 6 on the windows every optimiser ran (``head_to_head``), pooled over shapes: mean time
+    per window, evaluations, complexity, Eq. 34 efficiency (our reading), mean curvature reduction
+    and max deviation in both fidelity modes; the paper's time and efficiency beside ours."""
+    shapes = list(metrics)
+    methods = sorted({m for s in shapes for m in metrics[s]["head_to_head"].get("none", {})},
+                     key=lambda m: (m.partition("@")[0] != "nacoa", m))
+    headers = ["method", "time per window (s)", "evaluations", "complexity", "efficiency (Eq. 34, ours)",
+               "reduction, paper mode (%)", "max deviation, paper mode (mm)", "reduction, bound mode (%)",
+               "max deviation, bound mode (mm)", "paper: time / GPU / efficiency"]
+    table = Table("Table 6: optimisers on the same windows and budget, ours beside the paper", headers)
+    def pooled(method: str, key: str, mode: str, source: Mapping = metrics) -> list[float]:
+        return [source[s]["head_to_head"][mode][method][key] for s in shapes
+                if method in source[s]["head_to_head"].get(mode, {})]
+
+    for method in methods:
+        paper = PAPER_TABLE6.get(method)
+        paper_cell = (f"{paper['minutes']} min / {paper['gpu_percent']} % / {paper['efficiency']}" if paper else "-")
+        table.add([label(method), f"{_mean(pooled(method, 'mean_seconds', 'bound', timing)):.3g}",
+                   f"{_mean(pooled(method, 'mean_evaluations', 'bound')):.0f}",
+                   COMPLEXITY.get(method.partition("@")[0], "-"),
+                   f"{_mean(pooled(method, 'efficiency', 'bound', timing)):.3g}",
+                   f"{_mean(pooled(method, 'mean_reduction_pct', 'none')):.1f}",
+                   f"{max(pooled(method, 'max_deviation_mm', 'none'), default=float('nan')):.3f}",
+                   f"{_mean(pooled(method, 'mean_reduction_pct', 'bound')):.1f}",
+                   f"{max(pooled(method, 'max_deviation_mm', 'bound'), default=float('nan')):.3f}", paper_cell])
+    windows = sum(metrics[s]["head_to_head"]["none"]["nacoa"]["windows"] for s in shapes
+                  if "nacoa" in metrics[s]["head_to_head"].get("none", {}))
+    table.notes += [
+        f"Pooled over {len(shapes)} shapes, {windows} windows that every method ran (paper mode: no deviation bound; "
+        "bound mode: every point within the tolerance of the original polyline). Times are seconds per window on "
+        "one CPU core; the paper's are minutes on an RTX 4070 for an unstated workload, with the GPU share it "
+        "reports. Efficiency: Eq. 34 leaves its terms undefined; ours is the Fitness reduction (Eq. 10) per "
+        "second, so it is not comparable with the paper's 8.4.",
+        "`(shifted)`: the same optimiser on a search space shifted so that the origin is not the original path.",
+    ]
+    return table
+
+
+def reduction_table(metrics: Mapping[str, Mapping]) -> Table:
+    """Sec. 5.2.4: mean LocalCurvature reduction of mean filter, Bezier and NACOA over every sampled
+    window, per shape and fidelity mode, beside the paper's 54 / 67 / 78 %, with the max deviation."""
+    headers = ["shape", "mode", "windows", *(f"{label(m)} % (paper)" for m in PAPER_METHODS),
+               *(f"{label(m)} max dev. mm" for m in PAPER_METHODS)]
+    table = Table("Curvature reduction of the paper's three methods (Sec. 5.2.4, Figs. 9-11), ours beside the paper",
+                  headers)
+    for shape, m in metrics.items():
+        for mode in ("none", "bound"):
+            stats = m["methods"].get(mode, {}).get("plain", {})
+            if not stats:
+                continue
+            cells: list[object] = [shape, "paper (no bound)" if mode == "none" else "bound",
+                                   stats[PAPER_METHODS[-1]]["windows"]]
+            for method in PAPER_METHODS:
+                ours = stats[method]["mean_reduction_pct"]
+                cells.append(f"{ours:.1f} ({PAPER_REDUCTION[method]:.0f}, {ours - PAPER_REDUCTION[method]:+.1f})")
+            cells += [f"{stats[method]['max_deviation_mm']:.3f}" for method in PAPER_METHODS]
+            table.add(cells)
+    table.notes.append("Mean over the seeded sample of test windows, every Table 1 category equally represented. "
+                       "The paper reports the reduction only, never the deviation it costs.")
+    return table
+
+
+def _smoothed(smoothed: Mapping[str, np.ndarray], window: int, method: str, mode: str) -> np.ndarray | None:
+    hit = np.flatnonzero((smoothed["window"] == window) & (smoothed["method"] == method)
+                         & (smoothed["mode"] == mode) & (smoothed["encoding"] == "plain"))
+    return smoothed["points"][hit[0]].astype(np.float64) if len(hit) else None
+
+
+def methods_figure(cases: Mapping[str, tuple[np.ndarray, Mapping[str, np.ndarray]]], mode: str) -> Figure:
+    """Fig. 8: one window per shape, the original and every method's result.  ``cases``: shape ->
+    (original window, method -> smoothed window)."""
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.2 * len(cases), 4.4), dpi=120, squeeze=False)
+    for ax, (shape, (original, results)) in zip(axes[0], cases.items(), strict=True):
+        ax.plot(original[:, 0], original[:, 1], color="black", linewidth=2.4, label="original", zorder=1)
+        for method, points in results.items():
+            is_nacoa = method == "nacoa"
+            ax.plot(points[:, 0], points[:, 1], linewidth=1.8 if is_nacoa else 1.0, label=label(method),
+                    color="tab:red" if is_nacoa else None, zorder=3 if is_nacoa else 2)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"{shape} (mode: {mode})", fontsize=10)
+        ax.tick_params(labelsize=7)
+    axes[0][-1].legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def before_after_figure(shape: str, original: np.ndarray, results: Mapping[str, np.ndarray],
+                        mean_reduction: Mapping[str, float], mode: str) -> Figure:
+    """Figs. 9-11: mean filter, Bezier and NACOA on one window of ``shape``, each before / after with
+    this window's curvature reduction and the mean over the sample in the title."""
+    fig, axes = plt.subplots(1, len(results), figsize=(4.6 * len(results), 4.0), dpi=120, squeeze=False)
+    before = float(local_curvature(original))
+    for ax, (method, points) in zip(axes[0], results.items(), strict=True):
+        after = float(local_curvature(points))
+        ax.plot(original[:, 0], original[:, 1], color="tab:gray", linewidth=1.0, label="before")
+        ax.plot(points[:, 0], points[:, 1], color="tab:red", linewidth=1.5, label="after")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"{label(method)}: -{reduction_pct(before, after):.0f} % here\n"
+                     f"(mean {mean_reduction[method]:.0f} %, paper {PAPER_REDUCTION[method]:.0f} %)", fontsize=9)
+        ax.tick_params(labelsize=7)
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle(f"{shape}: LocalCurvature {before:.2f} before (mode: {mode})", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def tradeoff_figure(rows: Mapping[str, Sequence[Mapping[str, str]]]) -> Figure:
+    """Ours: curvature reduction against the farthest smoothed point from the original, per method and
+    mode (small dots per window, a large marker for the mean), pooled over shapes."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), dpi=120, sharey=True)
+    for ax, mode in zip(axes, ("none", "bound"), strict=True):
+        by_method: dict[str, list[tuple[float, float]]] = {}
+        for shape_rows in rows.values():
+            for r in shape_rows:
+                if r["mode"] == mode and r["encoding"] == "plain":
+                    by_method.setdefault(r["method"], []).append((float(r["max_deviation_mm"]),
+                                                                  float(r["reduction_pct"])))
+        for method, points in sorted(by_method.items()):
+            xy = np.array(points)
+            dots = ax.scatter(xy[:, 0], xy[:, 1], s=5, alpha=0.25)
+            ax.scatter(xy[:, 0].mean(), xy[:, 1].mean(), s=70, color=dots.get_facecolor()[0][:3],
+                       edgecolor="black", label=label(method), zorder=3)
+        below = sum(int((np.array(v)[:, 1] < Y_FLOOR).sum()) for v in by_method.values())
+        if below:  # a few windows made worse by far (the permuting start) would flatten everything else
+            ax.text(0.02, 0.03, f"{below} windows below {Y_FLOOR:.0f} % not shown", transform=ax.transAxes, fontsize=7)
+        ax.set_ylim(Y_FLOOR, 105)
+        ax.set_xscale("symlog", linthresh=0.01)
+        ax.set_xlabel("max deviation from the original (mm)")
+        ax.set_title("paper mode (no bound)" if mode == "none" else "bound mode", fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("LocalCurvature reduction (%)")
+    axes[1].legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    return fig
+
+
+def pick_window(rows: Sequence[Mapping[str, str]], category: int, head_to_head: bool, seed: int) -> int | None:
+    """A seeded choice among the sampled windows of ``category`` (those every method ran when
+    ``head_to_head``), so the figures show a drawn window, not a chosen one; any category when the
+    sample has none of ``category``."""
+    eligible = [r for r in rows if not head_to_head or r["baseline_window"] == "True"]
+    pool = sorted({int(r["window"]) for r in eligible if int(r["category"]) == category}) or \
+        sorted({int(r["window"]) for r in eligible})
+    if not pool:
+        return None
+    return int(np.random.default_rng(seed).choice(pool))
+
+
+def window_results(smoothed: Mapping[str, np.ndarray], window: int, methods: Sequence[str],
+                   mode: str) -> dict[str, np.ndarray]:
+    """Each method's smoothed version of ``window`` in ``mode`` (plain encoding), where it ran."""
+    results = {m: _smoothed(smoothed, window, m, mode) for m in methods}
+    return {m: p for m, p in results.items() if p is not None}

@@ -1,0 +1,70 @@
+"""The README's generated block: the headline figure and one-line-per-shape summaries of Table 3
+and Table 6, built from the same metrics as the report (no hand-typed numbers)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from toolpath.optimize.evaluate import PAPER_REDUCTION
+from toolpath.reports.paper import TABLE3
+
+HEADLINE = "fig8_methods"
+
+
+def table3_summary(metrics: Mapping[str, Mapping[str, Mapping]]) -> str:
+    """Per shape: MCRL's test accuracy / macro F1 beside the paper's, the best learned model, the rule."""
+    lines = ["| shape | MCRL accuracy / F1 (paper) | best learned model by F1 | exact rule accuracy |",
+             "|---|---|---|---|"]
+    for shape, models in metrics.items():
+        learned = {m: v["test"] for m, v in models.items() if m != "rule"}
+        if not learned:
+            continue
+        best = max(learned, key=lambda m: learned[m]["f1"])
+        mcrl = learned.get("mcrl")
+        paper = TABLE3.get(shape, {}).get("mcrl")
+        mcrl_cell = (f"{100 * mcrl['accuracy']:.1f} % / {100 * mcrl['f1']:.1f} %"
+                     + (f" ({paper[0]:.1f} % / {paper[4]:.1f} %)" if paper else "")) if mcrl else "-"
+        rule = models.get("rule", {}).get("test", {}).get("accuracy")
+        lines.append(f"| {shape} | {mcrl_cell} | {best} {100 * learned[best]['accuracy']:.1f} % / "
+                     f"{100 * learned[best]['f1']:.1f} % | {f'{100 * rule:.1f} %' if rule is not None else '-'} |")
+    return "\n".join(lines) + "\n"
+
+
+def table6_summary(metrics: Mapping[str, Mapping]) -> str:
+    """Per shape and mode: mean curvature reduction of mean filter, Bezier and NACOA over the whole
+    sample (paper 54 / 67 / 78 %) with the largest deviation, and NACOA against the best swarm
+    baseline on the windows both ran."""
+    lines = ["| shape | mode | mean filter | Bezier | NACOA | head to head: NACOA vs best swarm baseline |",
+             "|---|---|---|---|---|---|"]
+    for shape, m in metrics.items():
+        for mode in ("none", "bound"):
+            stats = m["methods"].get(mode, {}).get("plain", {})
+            if not all(k in stats for k in PAPER_REDUCTION):
+                continue
+            cells = [f"{stats[k]['mean_reduction_pct']:.0f} % (paper {PAPER_REDUCTION[k]:.0f} %), "
+                     f"max dev. {stats[k]['max_deviation_mm']:.3f} mm" for k in PAPER_REDUCTION]
+            head = m.get("head_to_head", {}).get(mode, {})
+            swarms = {k: v for k, v in head.items() if k not in ("nacoa", "nacoa_permute", "mean_filter", "bezier")}
+            if "nacoa" in head and swarms:
+                best = max(swarms, key=lambda k: swarms[k]["mean_reduction_pct"])
+                cells.append(f"{head['nacoa']['mean_reduction_pct']:.0f} % vs {best} "
+                             f"{swarms[best]['mean_reduction_pct']:.0f} %")
+            else:
+                cells.append("-")
+            lines.append(f"| {shape} | {'paper (no bound)' if mode == 'none' else 'bound 0.05 mm'} | "
+                         + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def readme_block(summaries: Mapping[str, str], profile: str, commit: str, out: Path) -> str:
+    """The README block: provenance, the headline figure, the summaries, how to regenerate."""
+    parts = [f"From profile `{profile}` at commit `{commit}`; the whole report with every table and figure is "
+             f"[`{out}/report.md`]({out}/report.md). Regenerate with `make repro`.", "",
+             f"![Every smoothing method on one drawn window per shape]({out}/figures/{HEADLINE}.png)", ""]
+    if "table3" in summaries:
+        parts += ["**Table 3 in brief** (test programs; the paper's figure in brackets):", "", summaries["table3"]]
+    if "table6" in summaries:
+        parts += ["**Table 6 / Sec. 5.2.4 in brief** (mean LocalCurvature reduction over the sampled test windows):",
+                  "", summaries["table6"]]
+    return "\n".join(parts)

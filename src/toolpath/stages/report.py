@@ -1,0 +1,319 @@
+"""The report: Tables 1-6 and Figures 6-11 of Li et al. beside ours.  Run: python -m toolpath.stages.report
+
+Reads only DVC outputs (metrics JSON / CSV, timing, per-epoch curves, windows, smoothed windows,
+models) and writes ``<paths.report>/report.md``, ``tables/table<N>_<name>.{md,tex}`` and
+``figures/fig<N>_<name>.{png,pdf}``; rewrites the marked block of ``report.readme`` with the
+headline figure and the Table 3 / Table 6 summaries.  A section whose inputs are missing is
+written as "missing", naming the files and the stage that makes them.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from toolpath import config, tracking
+from toolpath.reports import classify_figures as cf
+from toolpath.reports import smoothing as sm
+from toolpath.reports import summary as report_summary
+from toolpath.reports.document import Section, replace_block, report_markdown
+from toolpath.reports.paper import TABLE5_CORRECT
+from toolpath.reports.speed import table4
+from toolpath.reports.tables import Table, table1, table2, table3
+
+
+class Missing(Exception):
+    """Inputs a section needs that are not there."""
+
+    def __init__(self, paths: list[Path], stage: str) -> None:
+        super().__init__(", ".join(map(str, paths)))
+        self.paths, self.stage = paths, stage
+
+
+def require(paths: list[Path], stage: str) -> None:
+    absent = [p for p in paths if not p.exists()]
+    if absent:
+        raise Missing(absent, stage)
+
+
+def read_json(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except ValueError as exc:
+        raise SystemExit(f"{path}: not valid JSON ({exc})") from None
+
+
+def read_csv(path: Path) -> list[dict]:
+    with path.open(newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def read_columns(path: Path) -> dict[str, np.ndarray]:
+    rows = read_csv(path)
+    return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
+
+
+class Report:
+    """Builds the sections, writing each table and figure as it goes."""
+
+    def __init__(self, cfg, out: Path) -> None:
+        self.cfg, self.out = cfg, out
+        self.paths = cfg.paths
+        self.shapes = list(cfg.shapes)
+        self.learned = [m for m in cfg.train.models if m != "rule"]
+        self.written: list[Path] = []
+        self.summaries: dict[str, str] = {}
+
+    def metrics(self, *parts: str) -> Path:
+        return Path(self.paths.metrics).joinpath(*parts)
+
+    def table(self, table: Table | list[Table], stem: str) -> str:
+        tables = table if isinstance(table, list) else [table]
+        base = self.out / "tables" / stem
+        base.parent.mkdir(parents=True, exist_ok=True)
+        md = "\n".join(t.markdown() for t in tables)
+        base.with_suffix(".md").write_text(md, encoding="utf-8")
+        base.with_suffix(".tex").write_text("\n".join(t.latex() for t in tables), encoding="utf-8")
+        self.written += [base.with_suffix(".md"), base.with_suffix(".tex")]
+        return md
+
+    def figure(self, fig, stem: str, caption: str) -> str:
+        self.written += cf.save(fig, self.out / "figures" / stem)
+        return f"![{caption}](figures/{stem}.png)\n\n*{caption}* ([PDF](figures/{stem}.pdf))\n"
+
+    # ---- classification -------------------------------------------------------------------
+    def categories(self) -> str:
+        files = {s: self.metrics("label", f"{s}.json") for s in self.shapes}
+        require(list(files.values()), "label")
+        return self.table(table1({s: read_json(p) for s, p in files.items()}), "table1_categories")
+
+    def train_metrics(self) -> dict[str, dict[str, dict]]:
+        files = {(s, m): self.metrics("train", s, f"{m}.json") for s in self.shapes for m in self.cfg.train.models}
+        require(list(files.values()), "train")
+        return {s: {m: read_json(files[(s, m)]) for m in self.cfg.train.models} for s in self.shapes}
+
+    def hyperparameters(self) -> str:
+        metrics = self.train_metrics()
+        timing = {(s, m): Path(self.paths.timing) / "train" / s / f"{m}.json"
+                  for s in self.shapes for m in self.learned}
+        require(list(timing.values()), "train")
+        runs = {}
+        for s in self.shapes:
+            seconds = {m: read_json(timing[(s, m)])["train_seconds"] for m in self.learned}
+            runs[s] = {"all_seconds": sum(seconds.values())}
+            if "mcrl" in seconds:
+                runs[s] |= {"mcrl_seconds": seconds["mcrl"], "mcrl_epochs": metrics[s]["mcrl"]["epochs_run"]}
+        paper = paper_profile_train(self.shapes)
+        ours = {s: OmegaConf.to_container(self.cfg.train[s]) for s in self.shapes}
+        return self.table(table2(self.cfg.profile, ours, paper, runs), "table2_hyperparameters")
+
+    def performance(self) -> str:
+        metrics = self.train_metrics()
+        tables = [table3(s, {m: metrics[s][m]["test"] for m in metrics[s]}) for s in self.shapes]
+        self.summaries["table3"] = report_summary.table3_summary(metrics)
+        return self.table(tables, "table3_metrics")
+
+    def curves(self) -> str:
+        files = {(s, m): Path(self.paths.plots) / "train" / s / f"{m}.csv" for s in self.shapes for m in self.learned}
+        require(list(files.values()), "train")
+        curves = {s: {m: read_columns(files[(s, m)]) for m in self.learned} for s in self.shapes}
+        return (self.figure(cf.curves_figure(curves, "val_accuracy", "validation accuracy"), "fig6_accuracy",
+                            "Fig. 6: validation accuracy per epoch, every model, MCRL red")
+                + "\n" + self.figure(cf.curves_figure(curves, "val_loss", "validation loss (Eq. 29)"), "fig7_loss",
+                                     "Fig. 7: validation loss per epoch, every model, MCRL red"))
+
+    def confusion(self) -> str:
+        model = self.cfg.report.confusion_model
+        metrics = self.train_metrics()
+        confusions = {s: np.array(metrics[s][model]["test"]["confusion"]) for s in self.shapes}
+        return self.figure(cf.confusion_panels(confusions, model), "fig12_confusion",
+                           f"Ours: {model} confusion matrices on each shape's test programs (rows: true category)")
+
+    def cross_shape(self) -> str:
+        path = self.metrics("generalise.json")
+        require([path], "generalise")
+        data = read_json(path)
+        best = data.get("best_baseline", "-")
+        parts = [self.figure(cf.cross_shape_figure(data["cross_shape"]), "fig13_cross_shape",
+                             f"Ours: {self.cfg.generalise.model} and the best baseline by validation accuracy "
+                             f"({best}), each trained on one shape and tested on each")]
+        real = data.get("real_gcode", {})
+        if "metrics" in real:
+            parts.append(f"MCRL trained on all three shapes, on the real G-code of the corpus (labelled by the rule): "
+                         f"accuracy {real['metrics']['accuracy']:.3f}, macro F1 {real['metrics']['f1']:.3f}, "
+                         f"majority-class accuracy {real['majority_accuracy']:.3f}.\n")
+        elif "skipped" in real:
+            parts.append(f"Real G-code: {real['skipped']}.\n")
+        return "\n".join(parts)
+
+    def inference(self) -> str:
+        path = self.metrics("inference.json")
+        require([path], "benchmark")
+        return self.table(table4(read_json(path), self.shapes), "table4_inference")
+
+    def classification(self) -> str:
+        shape = self.cfg.report.table5_shape
+        windows_path = Path(self.paths.windows) / f"{shape}.npz"
+        models = {m: Path(self.paths.models) / shape / f"{m}.pt" for m in self.cfg.train.models}
+        require([windows_path, *models.values()], "train")
+        drawn, predictions = table5_predictions(windows_path, models, config.seed_for(self.cfg.seed, "report"))
+        table = Table(f"Table 5: one seeded random test window per category ({shape}), each model's prediction",
+                      ["model", *(f"category {c}" for c in drawn), "correct (paper)"])
+        for model, predicted in predictions.items():
+            right = sum(predicted[c] == c for c in drawn)
+            table.add([model, *("correct" if predicted[c] == c else f"wrong ({predicted[c]})" for c in drawn),
+                       f"{right} / {len(drawn)} ({TABLE5_CORRECT[model]} / 4)" if model in TABLE5_CORRECT
+                       else f"{right} / {len(drawn)} (-)"])
+        table.notes.append("The paper: MCRL right on all four, every other model wrong on one (which is not stated). "
+                           "Four windows are an anecdote; Table 3 is the measurement.")
+        return self.table(table, "table5_classification") + "\n" + self.figure(
+            cf.classification_grid(drawn, predictions), "table5_classification",
+            "Table 5 as the paper draws it: green where the model predicts the window's category, red where not")
+
+    # ---- smoothing ------------------------------------------------------------------------
+    def optimise_inputs(self) -> dict[str, dict]:
+        files = {s: {"metrics": self.metrics("optimise", f"{s}.json"), "rows": self.metrics("optimise", f"{s}.csv"),
+                     "timing": Path(self.paths.timing) / "optimise" / f"{s}.json",
+                     "smoothed": Path(self.paths.smoothed) / f"{s}.npz",
+                     "windows": Path(self.paths.windows) / f"{s}.npz"} for s in self.shapes}
+        require([p for f in files.values() for p in f.values()], "optimise")
+        out = {}
+        for s, f in files.items():
+            with np.load(f["smoothed"]) as smoothed, np.load(f["windows"]) as windows:
+                out[s] = {"metrics": read_json(f["metrics"]), "rows": read_csv(f["rows"]),
+                          "timing": read_json(f["timing"]), "smoothed": {k: smoothed[k] for k in smoothed.files},
+                          "windows": windows["windows"].astype(np.float64)}
+        return out
+
+    def optimisers(self) -> str:
+        data = self.optimise_inputs()
+        metrics = {s: d["metrics"] for s, d in data.items()}
+        self.summaries["table6"] = report_summary.table6_summary(metrics)
+        return (self.table(sm.table6(metrics, {s: d["timing"] for s, d in data.items()}),
+                           "table6_optimisers") + "\n" + self.table(sm.reduction_table(metrics), "table6_reduction"))
+
+    def smoothing_figures(self) -> str:
+        data = self.optimise_inputs()
+        rcfg, seed = self.cfg.report, config.seed_for(self.cfg.seed, "report", "figures")
+        mode, parts, cases = rcfg.figures_mode, [], {}
+        for s, d in data.items():
+            head = sm.pick_window(d["rows"], rcfg.figure_category, True, seed)
+            if head is not None:
+                methods = sorted({r["method"] for r in d["rows"] if int(r["window"]) == head})
+                cases[s] = (d["windows"][head], sm.window_results(d["smoothed"], head, methods, mode))
+        if cases:
+            parts.append(self.figure(sm.methods_figure(cases, mode), "fig8_methods",
+                                     "Fig. 8: one drawn window per shape, the original (black) and every method"))
+        for number, (s, d) in enumerate(data.items(), start=9):
+            window = sm.pick_window(d["rows"], rcfg.figure_category, False, seed)
+            if window is None:
+                continue
+            stats = d["metrics"]["methods"][mode]["plain"]
+            results = sm.window_results(d["smoothed"], window, sm.PAPER_METHODS, mode)
+            mean = {m: stats[m]["mean_reduction_pct"] for m in results}
+            parts.append(self.figure(sm.before_after_figure(s, d["windows"][window], results, mean, mode),
+                                     f"fig{number}_{s}", f"Fig. {number}: mean filter, Bezier and NACOA on a {s} "
+                                     "window, curvature reduction in each title"))
+        parts.append(self.figure(sm.tradeoff_figure({s: d["rows"] for s, d in data.items()}),
+                                 "fig14_reduction_vs_deviation",
+                                 "Ours: curvature reduction against the farthest point from the original path, per "
+                                 "method (mean: large marker), the trade-off the paper does not report"))
+        return "\n".join(parts)
+
+    def sections(self) -> list[Section]:
+        plan: list[tuple[str, Callable[[], str]]] = [
+            ("Table 1: roughness categories", self.categories),
+            ("Table 2: hyperparameters and training time", self.hyperparameters),
+            ("Table 3: classification metrics", self.performance),
+            ("Figures 6-7: training curves", self.curves),
+            ("Ours: confusion matrices", self.confusion),
+            ("Ours: generalisation across shapes and to real G-code", self.cross_shape),
+            ("Table 4: inference time, FP32 and INT8", self.inference),
+            ("Table 5: classification of random windows", self.classification),
+            ("Table 6: optimisers and curvature reduction", self.optimisers),
+            ("Figures 8-11 and the reduction / deviation trade-off", self.smoothing_figures),
+        ]
+        result = []
+        for title, build in plan:
+            try:
+                result.append(Section(title, build()))
+            except Missing as missing:
+                result.append(Section(title, missing=[str(p) for p in missing.paths], stage=missing.stage))
+        return result
+
+
+def paper_profile_train(shapes: list[str]) -> dict[str, dict]:
+    """``train.<shape>`` of the ``paper`` profile, composed from ``conf/`` like `dvc exp run` would."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = config.compose(["+experiment=paper"], output=Path(tmp) / "params.yaml")
+        paper = config.load(path)
+    return {s: OmegaConf.to_container(paper.train[s]) for s in shapes}
+
+
+def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -> tuple[dict, dict]:
+    """One seeded random test window per category, and each model's predicted category for it."""
+    from toolpath.models.classifier import from_checkpoint
+    from toolpath.stages._common import load_checkpoint, load_windows
+
+    data = load_windows(windows_path)
+    rng = np.random.default_rng(seed)
+    drawn = {}
+    for category in (1, 2, 3, 4):
+        pool = np.flatnonzero((data["label"] == category) & (data["split"] == 2))
+        if len(pool):
+            drawn[category] = data["windows"][rng.choice(pool)]
+    batch = np.stack(list(drawn.values()))
+    predictions = {}
+    for model, path in models.items():
+        predicted = from_checkpoint(load_checkpoint(path)).predict(batch)
+        predictions[model] = {c: int(p) for c, p in zip(drawn, predicted, strict=True)}
+    return drawn, predictions
+
+
+def source_state() -> tuple[str, bool]:
+    """The git commit and whether the source (``src``, ``conf``, ``dvc.yaml``) has uncommitted changes."""
+    try:
+        out = subprocess.run(["git", "status", "--porcelain", "--", "src", "conf", "dvc.yaml"], capture_output=True,
+                             text=True, check=True)
+        return tracking.git_commit(), not out.stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return tracking.git_commit(), False
+
+
+def main(argv: list[str] | None = None) -> None:
+    cfg = config.load()
+    out = Path(cfg.paths.report)
+    with tracking.stage_run("report", config.flat(cfg.report, "report")):
+        import mlflow
+
+        report = Report(cfg, out)
+        sections = report.sections()
+        commit, clean = source_state()
+        (out / "report.md").write_text(report_markdown(sections, cfg.profile, commit, clean), encoding="utf-8")
+        if cfg.report.readme:
+            readme = Path(cfg.report.readme)
+            block = report_summary.readme_block(report.summaries, cfg.profile, commit, out)
+            try:
+                readme.write_text(replace_block(readme.read_text(encoding="utf-8"), block, str(readme)),
+                                  encoding="utf-8")
+            except (OSError, ValueError) as exc:
+                raise SystemExit(f"{readme}: cannot write the report summary ({exc})") from None
+        missing = [s.title for s in sections if s.missing]
+        mlflow.log_metrics({"sections": len(sections), "missing_sections": len(missing)})
+        mlflow.log_artifact(str(out / "report.md"))
+        for path in report.written:
+            mlflow.log_artifact(str(path), artifact_path=path.parent.name)
+        if missing:
+            print("report: missing sections: " + "; ".join(missing))
+
+
+if __name__ == "__main__":
+    main()

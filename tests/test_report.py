@@ -1,0 +1,114 @@
+"""The report stage on partial inputs: cells equal their metrics, missing inputs are named.
+
+The stage on a whole smoke pipeline (every table and figure written) is in test_pipeline.py.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from toolpath import config
+from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
+from toolpath.reports.summary import table3_summary
+from toolpath.reports.tables import table1
+from toolpath.stages import report
+
+SHAPES = ("gear", "pentagram", "maple_leaf")
+
+
+def _metrics(accuracy: float) -> dict:
+    confusion = [[5, 1, 0, 0], [0, 3, 0, 0], [0, 0, 2, 1], [0, 0, 0, 4]]
+    return {"epochs_run": 2, "test": {"accuracy": accuracy, "loss": 0.5, "precision": 0.7, "recall": 0.6,
+                                      "f1": 0.65, "auc": 0.9, "confusion": confusion}}
+
+
+@pytest.fixture
+def partial(tmp_path, monkeypatch, mlflow_store):
+    """A smoke profile whose label and train metrics exist and nothing else."""
+    config.compose(["+experiment=smoke"], root=REPO, output=tmp_path / "params.yaml")
+    (tmp_path / "conf").symlink_to(REPO / "conf")
+    (tmp_path / "README.md").write_text(f"# x\n\n{README_BEGIN}\nold\n{README_END}\n\nafter\n")
+    for k, shape in enumerate(SHAPES):
+        label = {"class_count": {"1": 60, "2": 20, "3": 15, "4": 5}, "windows": 100,
+                 "class_share": {"1": 0.6, "2": 0.2, "3": 0.15, "4": 0.05}}
+        path = tmp_path / "reports/metrics/label" / f"{shape}.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(label))
+        for model, accuracy in (("mcrl", 0.8123 + k / 100), ("mlp", 0.7), ("rule", 1.0)):
+            path = tmp_path / "reports/metrics/train" / shape / f"{model}.json"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(_metrics(accuracy)))
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(partial):
+    report.main([])
+    text = (partial / "reports/report.md").read_text()
+    assert "Profile `smoke`" in text and "Differences from the paper" in text
+    # Table 3: the cell is the metric it came from (per cent, two decimals), beside the paper's
+    table3 = (partial / "reports/tables/table3_metrics.md").read_text()
+    assert "| mcrl | 82.23 / 94.98 (-12.75) |" in table3  # pentagram MCRL accuracy 0.8223: worse, negative
+    assert "| mcrl | 81.23 / 94.75 (-13.52) |" in table3  # gear
+    assert "| rule | **100.00** / - |" in table3  # the best per column in bold
+    assert (partial / "reports/tables/table3_metrics.tex").is_file()
+    table1_md = (partial / "reports/tables/table1_categories.md").read_text()
+    assert "| 1 smooth | <= 1.9 | 60 (60.0 %) | 60 (60.0 %) | 60 (60.0 %) |" in table1_md
+    assert (partial / "reports/figures/fig12_confusion.png").is_file()
+    # sections whose inputs are absent say so, naming the file and the stage
+    assert "## Table 4: inference time, FP32 and INT8\n\n**Missing section**: needs `reports/metrics/inference.json`" \
+        "; run `dvc repro benchmark`." in text
+    assert "`reports/metrics/optimise/gear.json`" in text and "run `dvc repro optimise`" in text
+    assert "**Missing sections**: Table 2" in text  # train timing absent
+    readme = (partial / "README.md").read_text()
+    assert "old" not in readme and readme.endswith(f"{README_END}\n\nafter\n")
+    assert "| gear | 81.2 % / 65.0 % (94.8 % / 94.8 %) | mcrl 81.2 % / 65.0 % | 100.0 % |" in readme
+
+
+def test_report_is_byte_identical_on_rerun(partial):
+    report.main([])
+    first = {p: p.read_bytes() for p in (partial / "reports").rglob("*") if p.is_file()}
+    report.main([])
+    again = {p: p.read_bytes() for p in (partial / "reports").rglob("*") if p.is_file()}
+    assert first.keys() == again.keys()
+    assert [p.name for p in first if first[p] != again[p]] == []
+
+
+def test_readme_without_markers_is_refused(partial):
+    (partial / "README.md").write_text("# no markers\n")
+    with pytest.raises(SystemExit, match="README.md: cannot write the report summary .*markers not found"):
+        report.main([])
+
+
+def test_blocks_sections_and_summaries():
+    assert replace_block(f"a\n{README_BEGIN}\nx\n{README_END}\nb", "new") == f"a\n{README_BEGIN}\nnew\n{README_END}\nb"
+    missing = Section("T", missing=["f.json"], stage="s").markdown()
+    assert missing == "## T\n\n**Missing section**: needs `f.json`; run `dvc repro s`.\n"
+    summary = table3_summary({"gear": {"mcrl": _metrics(0.5), "mlp": {"test": {**_metrics(0.9)["test"], "f1": 0.95}}}})
+    assert "| gear | 50.0 % / 65.0 % (94.8 % / 94.8 %) | mlp 90.0 % / 95.0 % | - |" in summary
+    table = table1({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": {"1": 0.75, "2": 0.25,
+                                                                                             "3": 0.0, "4": 0.0},
+                             "windows": 4}})
+    assert table.rows[0] == ["1 smooth", "<= 1.9", "3 (75.0 %)"] and table.rows[-1] == ["all", "", "4 (100 %)"]
+
+
+def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
+    from toolpath.models.classifier import to_checkpoint
+    from toolpath.models.rule import LocalCurvatureRule
+    from toolpath.stages._common import save_checkpoint
+
+    rng = np.random.default_rng(0)
+    windows = rng.normal(size=(40, 50, 2)).cumsum(axis=1).astype(np.float32)
+    from toolpath.geometry import local_curvature
+    from toolpath.labels import categorize
+
+    labels = categorize(local_curvature(windows.astype(np.float64))).astype(np.int8)
+    np.savez(tmp_path / "w.npz", windows=windows, label=labels, split=np.full(40, 2, np.int8),
+             program=np.zeros(40, np.int32))
+    rule = LocalCurvatureRule().fit(windows)
+    save_checkpoint(to_checkpoint(rule), tmp_path / "rule.pt")
+    drawn, predictions = report.table5_predictions(tmp_path / "w.npz", {"rule": tmp_path / "rule.pt"}, seed=3)
+    assert set(drawn) == set(np.unique(labels).tolist())
+    assert predictions["rule"] == {c: c for c in drawn}  # the exact rule is right on every window
