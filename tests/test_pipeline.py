@@ -66,6 +66,13 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
             assert set(entry[variant]) == {"latency_b1_ms", "s_per_batch", "windows_per_s", "windows_per_s_large_batch"}
         assert entry["fp32_file_bytes"] > 0 and entry["int8_file_bytes"] > 0 and "int8_speedup_eager" in entry
         assert set(entry["test_split_s"]) == {"gear", "pentagram", "maple_leaf"}
+    report = (work / "reports/report.md").read_text()
+    assert "Missing section" not in report and "Profile `smoke`" in report
+    stems = [line.strip().removeprefix("- ${paths.report}/").split(":")[0]
+             for line in (work / "dvc.yaml").read_text().splitlines() if "- ${paths.report}/" in line]
+    assert len(stems) == 35 and all((work / "reports" / stem).is_file() for stem in stems)
+    assert all(f"({stem})" in report for stem in stems if stem.startswith("figures/") and stem.endswith(".png"))
+    assert "Table 3 in brief" in (work / "README.md").read_text()
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown

@@ -44,7 +44,7 @@ def table6(metrics: Mapping[str, Mapping], timing: Mapping[str, Mapping]) -> Tab
     per window, evaluations, complexity, Eq. 34 efficiency (our reading), mean curvature reduction
     and max deviation in both fidelity modes; the paper's time and efficiency beside ours."""
     shapes = list(metrics)
-    methods = sorted({m for s in shapes for m in metrics[s]["head_to_head"].get("none", {})},
+    methods = sorted({m for s in shapes for m in metrics[s].get("head_to_head", {}).get("none", {})},
                      key=lambda m: (m.partition("@")[0] != "nacoa", m))
     headers = ["method", "time per window (s)", "evaluations", "complexity", "efficiency (Eq. 34, ours)",
                "reduction, paper mode (%)", "max deviation, paper mode (mm)", "reduction, bound mode (%)",
@@ -52,7 +52,7 @@ def table6(metrics: Mapping[str, Mapping], timing: Mapping[str, Mapping]) -> Tab
     table = Table("Table 6: optimisers on the same windows and budget, ours beside the paper", headers)
     def pooled(method: str, key: str, mode: str, source: Mapping = metrics) -> list[float]:
         return [source[s]["head_to_head"][mode][method][key] for s in shapes
-                if method in source[s]["head_to_head"].get(mode, {})]
+                if method in source[s].get("head_to_head", {}).get(mode, {})]
 
     for method in methods:
         paper = PAPER_TABLE6.get(method)
@@ -66,7 +66,7 @@ def table6(metrics: Mapping[str, Mapping], timing: Mapping[str, Mapping]) -> Tab
                    f"{_mean(pooled(method, 'mean_reduction_pct', 'bound')):.1f}",
                    f"{max(pooled(method, 'max_deviation_mm', 'bound'), default=float('nan')):.3f}", paper_cell])
     windows = sum(metrics[s]["head_to_head"]["none"]["nacoa"]["windows"] for s in shapes
-                  if "nacoa" in metrics[s]["head_to_head"].get("none", {}))
+                  if "nacoa" in metrics[s].get("head_to_head", {}).get("none", {}))
     table.notes += [
         f"Pooled over {len(shapes)} shapes, {windows} windows that every method ran (paper mode: no deviation bound; "
         "bound mode: every point within the tolerance of the original polyline). Times are seconds per window on "
@@ -179,8 +179,8 @@ def tradeoff_figure(rows: Mapping[str, Sequence[Mapping[str, str]]]) -> Figure:
 def pick_window(rows: Sequence[Mapping[str, str]], category: int, head_to_head: bool, seed: int) -> int | None:
     """A seeded choice among the sampled windows of ``category`` (those every method ran when
     ``head_to_head``), so the figures show a drawn window, not a chosen one; any category when the
-    sample has none of ``category``."""
-    eligible = [r for r in rows if not head_to_head or r["baseline_window"] == "True"]
+    sample has none of ``category``, any window when no baseline ran."""
+    eligible = [r for r in rows if not head_to_head or r["baseline_window"] == "True"] or list(rows)
     pool = sorted({int(r["window"]) for r in eligible if int(r["category"]) == category}) or \
         sorted({int(r["window"]) for r in eligible})
     if not pool:

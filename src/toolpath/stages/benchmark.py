@@ -23,21 +23,10 @@ from omegaconf import OmegaConf
 
 from toolpath import config, tracking
 from toolpath.models.classifier import from_checkpoint
+from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import load_checkpoint, load_windows, progress, write_json
 from toolpath.training import qat
 from toolpath.training.bench import branch_profile, compiled, threads, timed
-
-PAPER_TABLE4_S = {  # Table 4 of Li et al. (2024): seconds, workload not stated
-    "mcrl": {"gear": 3.2, "pentagram": 3.1, "maple_leaf": 3.9},
-    "mcrl_int8": {"gear": 2.8, "pentagram": 2.9, "maple_leaf": 3.5},
-    "convmixer": {"gear": 3.7, "pentagram": 3.8, "maple_leaf": 3.7},
-    "convnext": {"gear": 3.7, "pentagram": 3.2, "maple_leaf": 3.8},
-    "maxvit": {"gear": 3.0, "pentagram": 3.2, "maple_leaf": 4.1},
-    "mlp": {"gear": 4.1, "pentagram": 4.6, "maple_leaf": 4.6},
-    "cnn": {"gear": 3.7, "pentagram": 3.5, "maple_leaf": 4.3},
-    "rnn": {"gear": 3.7, "pentagram": 3.8, "maple_leaf": 4.5},
-    "lstm": {"gear": 3.3, "pentagram": 3.5, "maple_leaf": 4.2},
-}
 
 
 def machine(thread_count: int) -> dict:
@@ -88,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
     result: dict = {"setup": {**machine(bcfg["threads"]), **{k: bcfg[k] for k in ("repeats", "warmup", "batch",
                                                                                   "large_batch")},
                               "timing_shape": shapes[0], "compiled": bcfg["compile"]},
-                    "models": {}, "paper_table4_s": PAPER_TABLE4_S}
+                    "models": {}, "paper_table4_s": TABLE4}
     with tracking.stage_run("benchmark", config.flat(bcfg, "benchmark")), threads(bcfg["threads"]):
         import mlflow
 
