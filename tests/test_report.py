@@ -112,3 +112,14 @@ def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
     drawn, predictions = report.table5_predictions(tmp_path / "w.npz", {"rule": tmp_path / "rule.pt"}, seed=3)
     assert set(drawn) == set(np.unique(labels).tolist())
     assert predictions["rule"] == {c: c for c in drawn}  # the exact rule is right on every window
+
+
+def test_drawn_window_keeps_its_category_and_says_when_it_falls_back():
+    from toolpath.reports.smoothing import pick_window
+
+    rows = [{"window": str(w), "category": str(c), "baseline_window": str(b)}
+            for w, c, b in ((10, 3, False), (11, 3, True), (20, 4, True), (21, 4, False))]
+    assert pick_window(rows, 3, True, seed=0) == (11, 3)  # the only head-to-head window of category 3
+    assert pick_window(rows, 3, False, seed=0)[1] == 3
+    assert pick_window(rows, 2, True, seed=0) in {(11, 3), (20, 4)}  # no category 2: drawn elsewhere, said so
+    assert pick_window([], 3, True, seed=0) is None

@@ -176,16 +176,18 @@ def tradeoff_figure(rows: Mapping[str, Sequence[Mapping[str, str]]]) -> Figure:
     return fig
 
 
-def pick_window(rows: Sequence[Mapping[str, str]], category: int, head_to_head: bool, seed: int) -> int | None:
-    """A seeded choice among the sampled windows of ``category`` (those every method ran when
-    ``head_to_head``), so the figures show a drawn window, not a chosen one; any category when the
-    sample has none of ``category``, any window when no baseline ran."""
+def pick_window(rows: Sequence[Mapping[str, str]], category: int, head_to_head: bool,
+                seed: int) -> tuple[int, int] | None:
+    """A seeded choice ``(window, its category)`` among the sampled windows of ``category`` (those every
+    method ran when ``head_to_head``), so the figures show a drawn window, not a chosen one.  When the
+    sample has none of ``category`` (or no baseline ran) the draw is from every eligible window; the
+    category returned says which, and the captions print it."""
     eligible = [r for r in rows if not head_to_head or r["baseline_window"] == "True"] or list(rows)
-    pool = sorted({int(r["window"]) for r in eligible if int(r["category"]) == category}) or \
-        sorted({int(r["window"]) for r in eligible})
+    of_category = [r for r in eligible if int(r["category"]) == category] or eligible
+    pool = sorted({(int(r["window"]), int(r["category"])) for r in of_category})
     if not pool:
         return None
-    return int(np.random.default_rng(seed).choice(pool))
+    return pool[int(np.random.default_rng(seed).integers(len(pool)))]
 
 
 def window_results(smoothed: Mapping[str, np.ndarray], window: int, methods: Sequence[str],

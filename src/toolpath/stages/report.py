@@ -201,25 +201,30 @@ class Report:
     def smoothing_figures(self) -> str:
         data = self.optimise_inputs()
         rcfg, seed = self.cfg.report, config.seed_for(self.cfg.seed, "report", "figures")
-        mode, parts, cases = rcfg.figures_mode, [], {}
+        mode, parts, cases, drawn = rcfg.figures_mode, [], {}, []
         for s, d in data.items():
-            head = sm.pick_window(d["rows"], rcfg.figure_category, True, seed)
-            if head is not None:
+            picked = sm.pick_window(d["rows"], rcfg.figure_category, True, seed)
+            if picked is not None:
+                head, category = picked
+                drawn.append(f"{s} window {head}, category {category}")
                 methods = sorted({r["method"] for r in d["rows"] if int(r["window"]) == head})
                 cases[s] = (d["windows"][head], sm.window_results(d["smoothed"], head, methods, mode))
         if cases:
             parts.append(self.figure(sm.methods_figure(cases, mode), "fig8_methods",
-                                     "Fig. 8: one drawn window per shape, the original (black) and every method"))
+                                     "Fig. 8: one drawn window per shape (" + "; ".join(drawn)
+                                     + "), the original (black) and every method"))
         for number, (s, d) in enumerate(data.items(), start=9):
-            window = sm.pick_window(d["rows"], rcfg.figure_category, False, seed)
-            if window is None:
+            picked = sm.pick_window(d["rows"], rcfg.figure_category, False, seed)
+            if picked is None:
+                parts.append(f"Fig. {number}: no smoothed {s} window in the sample.\n")
                 continue
+            window, category = picked
             stats = d["metrics"]["methods"][mode]["plain"]
             results = sm.window_results(d["smoothed"], window, sm.PAPER_METHODS, mode)
             mean = {m: stats[m]["mean_reduction_pct"] for m in results}
             parts.append(self.figure(sm.before_after_figure(s, d["windows"][window], results, mean, mode),
-                                     f"fig{number}_{s}", f"Fig. {number}: mean filter, Bezier and NACOA on a {s} "
-                                     "window, curvature reduction in each title"))
+                                     f"fig{number}_{s}", f"Fig. {number}: mean filter, Bezier and NACOA on {s} "
+                                     f"window {window} (category {category}), curvature reduction in each title"))
         parts.append(self.figure(sm.tradeoff_figure({s: d["rows"] for s, d in data.items()}),
                                  "fig14_reduction_vs_deviation",
                                  "Ours: curvature reduction against the farthest point from the original path, per "
@@ -278,14 +283,15 @@ def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -
     return drawn, predictions
 
 
-def source_state() -> tuple[str, bool]:
-    """The git commit and whether the source (``src``, ``conf``, ``dvc.yaml``) has uncommitted changes."""
+def source_state() -> tuple[str, bool | None]:
+    """The git commit and whether the source (``src``, ``conf``, ``dvc.yaml``) has uncommitted changes
+    (None when git cannot tell)."""
     try:
         out = subprocess.run(["git", "status", "--porcelain", "--", "src", "conf", "dvc.yaml"], capture_output=True,
                              text=True, check=True)
         return tracking.git_commit(), not out.stdout.strip()
     except (OSError, subprocess.CalledProcessError):
-        return tracking.git_commit(), False
+        return tracking.git_commit(), None
 
 
 def main(argv: list[str] | None = None) -> None:
