@@ -96,3 +96,18 @@ def test_committed_optimise_metrics_back_the_readme_claims():
     deviations = [json.loads((REPO / "reports/metrics/optimise" / f"{s}.json").read_text())["methods"]["none"]["plain"]
                   ["mean_filter"]["max_deviation_mm"] for s in ("gear", "pentagram", "maple_leaf")]
     assert max(deviations) > 0.2
+
+
+def test_committed_sequence_metrics_back_the_readme_claims():
+    """README, "Where sequencing stands": each claim checked against the committed default-profile metrics."""
+    sheets = json.loads((REPO / "reports/metrics/sequence.json").read_text())["sheets"]
+    assert sorted(sheets, key=int) == [str(n) for n in OmegaConf.load(REPO / "params.yaml").sheets.counts]
+    for n, row in sheets.items():
+        travel = {m: s["empty_travel_mm"] for m, s in row.items()}
+        assert travel["s_shaped"] < travel["manual"], n
+        assert travel["s_shaped"] > travel["nearest_neighbour"], n
+        assert row["s_shaped"]["collisions"] <= row["s_shaped_no_avoidance"]["collisions"], n
+        assert row["gtsp_eq46"]["collisions"] == 0, n
+        assert travel["gtsp_eq46"] == min(t for m, t in travel.items() if row[m]["collisions"] == 0), n
+        assert travel["gtsp_eq46"] < travel["nearest_neighbour"], n
+        assert travel["gtsp"] == min(travel.values()) and row["gtsp"]["collisions"] > 10, n

@@ -11,6 +11,7 @@ import pytest
 
 from conftest import REPO
 from toolpath import config
+from toolpath.gcode import read_file
 
 pytestmark = pytest.mark.slow
 
@@ -66,11 +67,18 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
             assert set(entry[variant]) == {"latency_b1_ms", "s_per_batch", "windows_per_s", "windows_per_s_large_batch"}
         assert entry["fp32_file_bytes"] > 0 and entry["int8_file_bytes"] > 0 and "int8_speedup_eager" in entry
         assert set(entry["test_split_s"]) == {"gear", "pentagram", "maple_leaf"}
+    sequence = json.loads((work / "reports/metrics/sequence.json").read_text())
+    assert set(sequence["sheets"]) == {"10", "14"}  # the smoke profile's sheets
+    for n in ("10", "14"):
+        assert sequence["sheets"][n]["manual"]["optimisation_rate_pct"] == 0.0
+        program = read_file(work / f"data/sequence/sheet_{n}.nc")
+        assert len(program.points) > 100
     report = (work / "reports/report.md").read_text()
+    assert "Seed 004, Table 1" in report
     assert "Missing section" not in report and "Profile `smoke`" in report
     stems = [line.strip().removeprefix("- ${paths.report}/").split(":")[0]
              for line in (work / "dvc.yaml").read_text().splitlines() if "- ${paths.report}/" in line]
-    assert len(stems) == 35 and all((work / "reports" / stem).is_file() for stem in stems)
+    assert len(stems) == 43 and all((work / "reports" / stem).is_file() for stem in stems)
     assert all(f"({stem})" in report for stem in stems if stem.startswith("figures/") and stem.endswith(".png"))
     assert "Table 3 in brief" in (work / "README.md").read_text()
     shown = run(dvc + ["metrics", "show"], work, env)
@@ -78,4 +86,5 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
     assert "reports/metrics/optimise/gear.json" in shown
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
+    assert "reports/metrics/sequence.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)

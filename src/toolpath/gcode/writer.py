@@ -47,7 +47,7 @@ def fmt(value: float, decimals: int) -> str:
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
-def _moves(points: np.ndarray, decimals: int, first_prefix: str = "G1") -> list[str]:
+def g1_moves(points: np.ndarray, decimals: int, first_prefix: str = "G1") -> list[str]:
     """``G1`` lines through ``points`` (k, 2|3), omitting axis words that do not change (modal)."""
     out, last = [], [None, None, None]
     for k, p in enumerate(points):
@@ -81,7 +81,7 @@ def write_program(passes: Sequence[Pass], spec: ProgramSpec, title: str = "") ->
             lines.append(f"G0 Z{fmt(spec.safe_z, d)}")
             lines.append(f"G0 X{fmt(x0, d)} Y{fmt(y0, d)}")
             lines.append(f"G1 Z{fmt(cut.z, d)} F{fmt(spec.plunge_feed, 0)}")
-        moves = _moves(np.asarray(cut.xy[1:]), d)
+        moves = g1_moves(np.asarray(cut.xy[1:]), d)
         if moves and not linked:
             moves[0] += f" F{fmt(spec.feed, 0)}"
         lines.extend(moves)
@@ -164,7 +164,7 @@ def replace_motion(program: Program, replacements: Sequence[tuple[int, int, np.n
         if not before.absolute:
             start = np.round((np.array(before.position) - np.array(before.offset)) / scale, d)
             rounded = np.diff(np.vstack([start, rounded]), axis=0)
-        lines = _moves(rounded, d) if before.absolute else _incremental_moves(rounded, d)
+        lines = g1_moves(rounded, d) if before.absolute else _incremental_moves(rounded, d)
         if has_feed and after.feed is not None and lines:
             lines[0] += f" F{fmt(after.feed / scale, max(d - 2, 0))}"
         ending = "\r\n" if program.lines[first - 1].endswith("\r\n") else "\n"

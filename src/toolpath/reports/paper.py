@@ -54,3 +54,13 @@ TABLE4 = {  # seconds, workload not stated
 # Table 5 (gear, one random curve per category): MCRL classified all four correctly; every other
 # model misclassified one of them (which one is not stated)
 TABLE5_CORRECT = {"mcrl": 4, "convmixer": 3, "convnext": 3, "maxvit": 3, "mlp": 3, "cnn": 3, "rnn": 3, "lstm": 3}
+
+# Xie & Zhu (seed 004), Table 1, per sample-set size and "optimised sorting" (collision avoidance):
+# (collisions, average empty travel of manual sorting mm, empty travel mm, time s, optimisation rate %).
+SEED004_TABLE1 = {
+    58: {"no": (2, 10650, 8134, 604, 23.6), "yes": (1, 10650, 8021, 544, 24.0)},
+    63: {"no": (2, 11560, 9656, 601, 16.5), "yes": (1, 11560, 9132, 580, 21.0)},
+    68: {"no": (2, 12193, 10373, 671, 14.9), "yes": (1, 12193, 10295, 626, 15.6)},
+    73: {"no": (5, 13225, 11341, 740, 14.2), "yes": (4, 13225, 11032, 616, 16.6)},
+    78: {"no": (6, 14089, 12010, 803, 14.7), "yes": (4, 14089, 11461, 714, 18.6)},
+}

@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 
 from toolpath import config, tracking
 from toolpath.reports import classify_figures as cf
+from toolpath.reports import sequencing as seqr
 from toolpath.reports import smoothing as sm
 from toolpath.reports import summary as report_summary
 from toolpath.reports.document import Section, replace_block, report_markdown
@@ -231,6 +232,25 @@ class Report:
                                  "method (mean: large marker), the trade-off the paper does not report"))
         return "\n".join(parts)
 
+    # ---- sequencing (seed 004) -------------------------------------------------------------
+    def sequencing(self) -> str:
+        seq = self.cfg.sequence
+        metrics_path, timing_path = self.metrics("sequence.json"), Path(self.paths.timing) / "sequence.json"
+        sheet_path = Path(self.paths.sheets) / f"sheet_{seq.figure_sheet}.json"
+        plans_path = Path(self.paths.sequence) / f"sheet_{seq.figure_sheet}.json"
+        require([metrics_path, timing_path, sheet_path, plans_path], "sequence")
+        metrics, plans = read_json(metrics_path), read_json(plans_path)
+        parts = [self.table(seqr.table1(metrics, read_json(timing_path)), "table7_sequencing"),
+                 self.table(seqr.baselines_table(metrics), "table8_sequencing_baselines"),
+                 self.table(seqr.expansion_table(metrics, seq.expansion_study.sheet), "table9_expansion")]
+        shown = {title: plans[m] for title, m in (("without collision avoidance", "s_shaped_no_avoidance"),
+                                                  ("with collision avoidance", "s_shaped")) if m in plans}
+        if shown:
+            parts.append(self.figure(seqr.sheet_figure(read_json(sheet_path), shown), "fig15_sequence",
+                                     f"Seed 004, Fig. 10's style: the S-shaped plan of the {seq.figure_sheet}-part "
+                                     "sheet, entry points red, exit points yellow, transitions blue, collisions red"))
+        return "\n".join(parts)
+
     def sections(self) -> list[Section]:
         plan: list[tuple[str, Callable[[], str]]] = [
             ("Table 1: roughness categories", self.categories),
@@ -243,6 +263,7 @@ class Report:
             ("Table 5: classification of random windows", self.classification),
             ("Table 6: optimisers and curvature reduction", self.optimisers),
             ("Figures 8-11 and the reduction / deviation trade-off", self.smoothing_figures),
+            ("Seed 004: sequencing many parts on one sheet", self.sequencing),
         ]
         result = []
         for title, build in plan:

@@ -1,0 +1,68 @@
+"""Every method of seed 004's comparison on one sheet, scored alike (Table 1 and the baselines)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from toolpath.sequencing.baselines import gtsp_plan, manual_order, nearest_neighbour_order
+from toolpath.sequencing.planner import Plan, part_tree, plan_path
+from toolpath.sequencing.regions import Region, s_shaped_regions
+from toolpath.sequencing.score import score
+from toolpath.sequencing.sheets import Sheet
+
+# Table 1's "optimised sorting: yes" is the S-shaped order with collision handling; "no" without.
+METHODS = ("s_shaped", "s_shaped_no_avoidance", "manual", "nearest_neighbour", "gtsp", "gtsp_eq46")
+
+
+@dataclass
+class Outcome:
+    plan: Plan
+    scores: dict[str, float]
+    seconds: float
+    facts: dict
+
+
+def s_shaped(sheet: Sheet, expansions: int, start_up: bool, handle: bool, max_handling: int,
+             tree=None) -> tuple[Plan, list[Region]]:
+    regions = s_shaped_regions(sheet.parts, expansions, start_up)
+    order = [p for r in regions for p in r.order]
+    region_of = [0] * len(sheet.parts)
+    for k, r in enumerate(regions):
+        for p in r.order:
+            region_of[p] = k
+    plan = plan_path(sheet.parts, order, region_of, [r.up for r in regions], handle_collisions=handle,
+                     limit_detection=True, max_handling=max_handling, tree=tree)
+    return plan, regions
+
+
+def run_sheet(sheet: Sheet, algorithm: dict, gtsp: dict, feed: float, methods=METHODS,
+              on_method: Callable[[str], None] | None = None) -> dict[str, Outcome]:
+    """Plan and score ``sheet`` with each of ``methods``; ``algorithm`` and ``gtsp`` from conf/sequence."""
+    parts, tree = sheet.parts, part_tree(sheet.parts)
+    out: dict[str, Outcome] = {}
+    for method in methods:
+        began, facts = time.perf_counter(), {}
+        if method in ("s_shaped", "s_shaped_no_avoidance"):
+            plan, regions = s_shaped(sheet, algorithm["expansions"], algorithm["start_up"],
+                                     method == "s_shaped", algorithm["max_handling"], tree)
+            facts = {"regions": len(regions), **{f"handled_{k}": v for k, v in plan.handled.items()}}
+        elif method == "manual":
+            order, rows = manual_order(parts)
+            plan = plan_path(parts, order, rows, limit_detection=False, tree=tree)
+            facts = {"rows": max(rows) + 1}
+        elif method == "nearest_neighbour":
+            order = nearest_neighbour_order(parts, tree, algorithm["neighbours"])
+            plan = plan_path(parts, order, [0] * len(parts), limit_detection=False, tree=tree)
+        elif method in ("gtsp", "gtsp_eq46"):
+            plan, facts = gtsp_plan(parts, gtsp["points"], gtsp["solution_limit"], gtsp["time_limit"],
+                                     gtsp["metaheuristic"])
+            if method == "gtsp_eq46":  # the solver's order with Eq. 4-6 exit/entry points
+                plan = plan_path(parts, plan.order, [0] * len(parts), limit_detection=False, tree=tree)
+        else:
+            raise ValueError(f"unknown sequencing method {method!r}; choose from {', '.join(METHODS)}")
+        out[method] = Outcome(plan, score(plan, parts, tree, feed), time.perf_counter() - began, facts)
+        if on_method:
+            on_method(method)
+    return out

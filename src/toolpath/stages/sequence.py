@@ -1,0 +1,89 @@
+"""Sequence every sheet by seed 004's S-shaped algorithm and the baselines.  Run: python -m toolpath.stages.sequence
+
+Reads ``<paths.sheets>/sheet_<n>.json``; writes ``<paths.sequence>/sheet_<n>.nc`` (the S-shaped plan
+with collision avoidance as one continuous-cut program) and ``sheet_<n>.json`` (every method's
+visits and collisions, for the report's figure), ``<paths.metrics>/sequence.json`` (empty travel,
+collisions, optimisation rate against the manual order: deterministic) and
+``<paths.timing>/sequence.json`` (each method's planning time, Table 1's Time column).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from omegaconf import OmegaConf
+
+from toolpath import config, tracking
+from toolpath.gcode.writer import ProgramSpec
+from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
+from toolpath.sequencing.planner import Plan
+from toolpath.sequencing.score import collisions
+from toolpath.stages._common import clean_dir, progress, write_json
+
+
+def load_sheet(path: Path) -> Sheet:
+    if not path.is_file():
+        raise SystemExit(f"{path}: sheet not found; run `dvc repro sheets` first")
+    try:
+        return Sheet.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    except (json.JSONDecodeError, ValueError) as exc:
+        raise SystemExit(f"{path}: not a readable sheet ({exc})") from None
+
+
+def plan_record(plan: Plan, sheet: Sheet) -> dict:
+    """Visits and collisions of a plan, as JSON (mm, 4 decimals)."""
+    def xy(p):
+        return None if p is None else [round(float(p[0]), 4), round(float(p[1]), 4)]
+    return {"visits": [{"part": v.part, "full": v.full, "entry": xy(v.entry_xy), "exit": xy(v.exit_xy)}
+                       for v in plan.visits],
+            "collisions": [list(c) for c in collisions(plan, sheet.parts, part_tree(sheet.parts))]}
+
+
+def main(argv: list[str] | None = None) -> None:
+    cfg = config.load()
+    seq = OmegaConf.to_container(cfg.sequence, resolve=True)
+    counts = [int(n) for n in cfg.sheets.counts]
+    sheets = {n: load_sheet(Path(cfg.paths.sheets) / f"sheet_{n}.json") for n in counts}
+    out = clean_dir(Path(cfg.paths.sequence))
+    spec = ProgramSpec(**cfg.gcode.write)
+    metrics: dict = {"sheets": {}, "expansion": {}}
+    seconds: dict = {}
+    with tracking.stage_run("sequence", {"seed": cfg.seed, **config.flat(seq, "sequence")}):
+        import mlflow
+
+        for n in progress(counts, "sequence sheets"):
+            sheet = sheets[n]
+            outcomes = run_sheet(sheet, seq["algorithm"], seq["gtsp"], seq["feed"], seq["methods"])
+            manual = outcomes["manual"].scores["empty_travel_mm"] if "manual" in outcomes else None
+            metrics["sheets"][str(n)] = {
+                m: {**o.scores, **{k: v for k, v in o.facts.items() if k not in ("seconds", "time_capped")},
+                    "optimisation_rate_pct": None if manual is None
+                    else 100.0 * (1 - o.scores["empty_travel_mm"] / manual)}
+                for m, o in outcomes.items()}
+            seconds[str(n)] = {m: {"seconds": o.seconds, "time_capped": bool(o.facts.get("time_capped", False))}
+                               for m, o in outcomes.items()}
+            write_json({m: plan_record(o.plan, sheet) for m, o in outcomes.items()}, out / f"sheet_{n}.json")
+            if "s_shaped" in outcomes:
+                title = f"seed 004 S-shaped sequencing, {n} parts, seed {cfg.seed}, continuous cut"
+                (out / f"sheet_{n}.nc").write_text(
+                    sheet_program(outcomes["s_shaped"].plan, sheet.parts, spec, seq["depth"], title), encoding="utf-8")
+        study = seq["expansion_study"]
+        if study["sheet"] not in sheets:
+            raise SystemExit(f"params.yaml: sequence.expansion_study.sheet {study['sheet']} is not in sheets.counts")
+        sheet, tree = sheets[study["sheet"]], part_tree(sheets[study["sheet"]].parts)
+        for count in study["counts"]:
+            plan, _ = s_shaped(sheet, count, seq["algorithm"]["start_up"], True, seq["algorithm"]["max_handling"], tree)
+            metrics["expansion"][str(count)] = score(plan, sheet.parts, tree, seq["feed"])
+        write_json(metrics, Path(cfg.paths.metrics) / "sequence.json")
+        write_json(seconds, Path(cfg.paths.timing) / "sequence.json")
+        mlflow.log_metrics({f"sequence/{n}/{m}/{k}": float(v) for n, row in metrics["sheets"].items()
+                            for m, scores in row.items() for k, v in scores.items()
+                            if isinstance(v, int | float) and not isinstance(v, bool)})
+        mlflow.log_metrics({f"sequence/expansion/{c}/{k}": float(v) for c, s in metrics["expansion"].items()
+                            for k, v in s.items()})
+        mlflow.log_artifacts(str(out), artifact_path="sequence")
+
+
+if __name__ == "__main__":
+    main()
