@@ -25,7 +25,7 @@ DIFFERENCES = (
     "passes its output to the next and the linear fusion of the four heads are our reading of a text that gives "
     "no equations for them (`toolpath.models.mcrl`).",
     "**Training.** The default profile keeps Table 2's decay rates, decay steps and batch sizes but compresses the "
-    "schedule: at most 6 epochs with early stopping on validation loss, at a learning rate of 1e-3 (the paper: "
+    "schedule: at most 4 epochs with early stopping on validation loss, at a learning rate of 1e-3 (the paper: "
     "203-497 epochs at 1e-4 / 5e-4); `+experiment=paper` runs Table 2 as printed. The exact LocalCurvature rule "
     "is scored on the same test programs: it is the ceiling.",
     "**QAT and Table 4.** PT2E quantization-aware training with torchao's x86 quantizer; only `Linear` layers run "

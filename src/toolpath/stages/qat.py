@@ -14,8 +14,10 @@ Writes ``<paths.metrics>/qat/<shape>.json`` (deterministic) and ``<paths.timing>
 from __future__ import annotations
 
 import json
+import multiprocessing
 import time
 import traceback
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +27,7 @@ from omegaconf import OmegaConf
 from toolpath import config, tracking
 from toolpath.models.classifier import from_checkpoint
 from toolpath.shapes.synth import SHAPES
-from toolpath.stages._common import clean_dir, load_checkpoint, load_windows, shape_arg, write_json
+from toolpath.stages._common import clean_dir, load_checkpoint, load_windows, progress, shape_arg, write_json
 from toolpath.training import qat
 from toolpath.training.loop import TrainSettings, predict_logits
 from toolpath.training.metrics import classification_metrics
@@ -42,13 +44,16 @@ def _fp32_test(metrics_dir: Path, shape: str, model: str) -> dict:
 
 
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
-                 out: Path) -> tuple[dict, float]:
+                 out: Path, show_epochs: bool = True) -> tuple[dict, float]:
     """QAT, convert, save, reload-check and score one model; returns (metrics, seconds)."""
     clf = from_checkpoint(checkpoint)
     started = time.perf_counter()
-    with EpochBar(f"qat {name}", settings.epochs) as bar:
-        result = qat.train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                               on_epoch=bar.update)
+    if show_epochs:
+        with EpochBar(f"qat {name}", settings.epochs) as bar:
+            result = qat.train_qat(clf.network_, *parts["train"], settings, *parts["val"],
+                                   freeze_last=freeze_last, on_epoch=bar.update)
+    else:
+        result = qat.train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last)
     seconds = time.perf_counter() - started
     X_test = torch.as_tensor(parts["test"][0])
     logits = predict_logits(result.model, X_test)
@@ -60,6 +65,19 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
             "file_bytes": size, "tensor_bytes": qat.tensor_bytes(result.model),
             "fp32_tensor_bytes": qat.tensor_bytes(from_checkpoint(checkpoint).network_),
             "ops": qat.op_precision(result.model), "epochs": len(result.history)}, seconds
+
+
+def _worker(job: tuple) -> tuple[dict, float, str | None]:
+    """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
+    name, fp32_file, parts, settings, freeze_last, out, threads = job
+    torch.set_num_threads(threads)
+    torch.use_deterministic_algorithms(True)
+    try:
+        entry, seconds = quantize_one(name, load_checkpoint(fp32_file), parts, settings, freeze_last, out,
+                                      show_epochs=False)
+        return entry, seconds, None
+    except Exception as exc:  # a route that fails is a result to report, not a crash
+        return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -85,19 +103,26 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run(f"qat@{args.shape}", params, shape=args.shape):
         import mlflow
 
+        jobs, fp32_tests = [], {}
         for name in qcfg["models"]:
-            fp32 = _fp32_test(metrics_dir, args.shape, name)
+            fp32_tests[name] = _fp32_test(metrics_dir, args.shape, name)
+            if not (models_dir / f"{name}.pt").is_file():
+                raise SystemExit(f"{models_dir / f'{name}.pt'}: model file not found; run `dvc repro train` first")
             settings = TrainSettings(lr=schedule["lr"] * qcfg["lr_scale"], decay_rate=schedule["decay_rate"],
                                      decay_steps=schedule["decay_steps"], batch_size=schedule["batch_size"],
                                      epochs=qcfg["epochs"], weight_decay=cfg.train.common.weight_decay,
                                      seed=config.seed_for(cfg.seed, "qat", args.shape, name))
-            fp32_file = models_dir / f"{name}.pt"
-            try:
-                entry, seconds = quantize_one(name, load_checkpoint(fp32_file), parts, settings,
-                                              qcfg["freeze_last"], out_dir / f"{name}.pt2")
-            except Exception as exc:  # a route that fails is a result to report, not a crash
-                entry, seconds = {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0
-                (out_dir / f"{name}.failed.txt").write_text(traceback.format_exc())
+            threads = max(1, cfg.train.common.threads // qcfg["workers"])
+            jobs.append((name, models_dir / f"{name}.pt", parts, settings, qcfg["freeze_last"],
+                         out_dir / f"{name}.pt2", threads))
+        # models are independent: spawned workers, results in submission order (same output for any order)
+        with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(_worker, job) for job in jobs]
+            outputs = [future.result() for future in progress(futures, f"qat {args.shape}")]
+        for (name, fp32_file, *_), (entry, seconds, failure) in zip(jobs, outputs, strict=True):
+            fp32 = fp32_tests[name]
+            if failure is not None:
+                (out_dir / f"{name}.failed.txt").write_text(failure)
             entry["fp32_test"] = {k: fp32[k] for k in TABLE3}
             entry["fp32_file_bytes"] = fp32_file.stat().st_size
             if entry["status"] == "ok":
