@@ -28,9 +28,10 @@ repro: install
 	$(PY) -m toolpath.config
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/dvc repro
 
-## The whole test suite (unit, config, stage and one end-to-end pipeline test).
+## The whole test suite (unit, config, stage and one end-to-end pipeline test).  Two xdist workers:
+## the end-to-end pipeline (mostly one busy core: process start-up) runs beside the rest.
 test: install
-	$(VENV)/bin/pytest
+	$(VENV)/bin/pytest -n 2 --dist loadgroup
 
 test-fast: install
 	$(VENV)/bin/pytest -m "not slow"

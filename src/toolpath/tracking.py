@@ -4,6 +4,14 @@ The store is SQLite in the repository root (``sqlite:///$DVC_ROOT/mlflow.db``) u
 ``MLFLOW_TRACKING_URI`` is set; artefacts go to ``$DVC_ROOT/mlruns``.  The parent run is named
 after the DVC experiment (``DVC_EXP_NAME``) or ``repro-<git sha>`` and found again by its
 ``pipeline_key`` tag, so every stage of one pipeline run lands under it.
+
+Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: every
+connection waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock (SQLite's busy timeout), a
+file lock serialises opening the store (a new store is migrated on first use), and the creations
+that can still race (the experiment, a parent run) are retried.  We keep
+one store rather than a store per worker merged afterwards: MLflow writes are a handful of short
+transactions per stage, so waiting costs little, and ``mlflow ui`` sees every run at once.  Past a
+few writers, point ``MLFLOW_TRACKING_URI`` at PostgreSQL (see the README).
 """
 
 from __future__ import annotations
@@ -12,11 +20,14 @@ import contextlib
 import logging
 import os
 import subprocess
-from collections.abc import Iterator, Mapping
+import time
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 EXPERIMENT = "cnc-curvature"
+SQLITE_BUSY_SECONDS = 60
+T = TypeVar("T")
 log = logging.getLogger(__name__)
 
 
@@ -25,7 +36,71 @@ def repo_root() -> Path:
 
 
 def tracking_uri() -> str:
-    return os.environ.get("MLFLOW_TRACKING_URI") or f"sqlite:///{repo_root() / 'mlflow.db'}"
+    return os.environ.get("MLFLOW_TRACKING_URI") or \
+        f"sqlite:///{repo_root() / 'mlflow.db'}?timeout={SQLITE_BUSY_SECONDS}"
+
+
+def _transient(exc: BaseException) -> bool:
+    text = str(exc).lower()
+    # the last two: another process is creating or migrating a new store's tables at the same moment
+    return any(s in text for s in ("database is locked", "unique constraint", "already exists", "duplicate key",
+                                   "alembic_version", "migration"))
+
+
+def with_retry(action: Callable[[], T], attempts: int = 8) -> T:
+    """``action()``, again after a short back-off when it lost a race with another writer."""
+    for attempt in range(attempts):
+        try:
+            return action()
+        except Exception as exc:
+            if attempt == attempts - 1 or not _transient(exc):
+                raise
+            log.info("tracking store busy (%s); retrying", exc)
+            time.sleep(0.2 * 2 ** attempt)
+    raise AssertionError("unreachable")
+
+
+@contextlib.contextmanager
+def _sqlite_init_lock(uri: str) -> Iterator[None]:
+    """Hold ``<store>.lock`` while MLflow opens a SQLite store: a new store is created by running
+    its migrations, and two processes migrating one file at once corrupt each other's steps."""
+    prefix = "sqlite:///"
+    if not uri.startswith(prefix):
+        yield
+        return
+    import fcntl
+
+    lock = Path(uri[len(prefix):].split("?", 1)[0] + ".lock")
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with lock.open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
+    """The id of experiment ``name``, created (artefacts under ``mlruns/``) when missing.
+
+    Runs under the store's init lock, in case this is the first use of a new store."""
+    def get_or_create() -> str:
+        found = client.get_experiment_by_name(name)
+        return found.experiment_id if found else \
+            client.create_experiment(name, artifact_location=(repo_root() / "mlruns").as_uri())
+
+    with _sqlite_init_lock(str(client.tracking_uri)):
+        return with_retry(get_or_create)
+
+
+def client(uri: str | None = None) -> Any:
+    """An MLflow client of ``uri`` (default :func:`tracking_uri`); creating it opens (and, for a new
+    store, migrates) the store, so it runs under the store's init lock."""
+    import mlflow
+
+    uri = uri or tracking_uri()
+    with _sqlite_init_lock(uri):
+        return with_retry(lambda: mlflow.MlflowClient(tracking_uri=uri))
 
 
 def git_commit(root: Path | None = None) -> str:
@@ -61,14 +136,12 @@ def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) 
     import mlflow
 
     mlflow.set_tracking_uri(tracking_uri())
-    client = mlflow.MlflowClient()
-    experiment = client.get_experiment_by_name(EXPERIMENT)
-    experiment_id = (experiment.experiment_id if experiment else
-                     client.create_experiment(EXPERIMENT, artifact_location=(repo_root() / "mlruns").as_uri()))
-    parent = _parent_run_id(client, experiment_id, pipeline_key())
+    store = client()
+    experiment = experiment_id(store)
+    parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
     name = os.environ.get("DVC_STAGE") or stage
     run_tags = {"stage": stage, "git_commit": git_commit(), "pipeline_key": pipeline_key(), **tags}
-    with mlflow.start_run(experiment_id=experiment_id, run_name=name, parent_run_id=parent, tags=run_tags) as run:
+    with mlflow.start_run(experiment_id=experiment, run_name=name, parent_run_id=parent, tags=run_tags) as run:
         if params:
             mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
         yield run

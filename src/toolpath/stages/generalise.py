@@ -21,6 +21,7 @@ from toolpath.gcode import GCodeError, ReaderOptions, read_file
 from toolpath.labels import label_program
 from toolpath.models import TorchClassifier
 from toolpath.models.classifier import from_checkpoint, to_checkpoint
+from toolpath.models.registry import split_schedule
 from toolpath.stages._common import load_checkpoint, load_windows, save_checkpoint, write_json
 from toolpath.training.generalise import best_by_validation, cross_shape_matrix
 from toolpath.training.metrics import classification_metrics
@@ -75,7 +76,8 @@ def main(argv: list[str] | None = None) -> None:
         stack = {k: tuple(np.concatenate([subset[s][k][i] for s in cfg.shapes]) for i in (0, 1)) for k in (0, 1)}
         settings = {**OmegaConf.to_container(gen.schedule), "patience": common.patience,
                     "seed": config.seed_for(cfg.seed, "generalise", gen.model)}
-        clf = TorchClassifier(OmegaConf.to_container(cfg.models[gen.model]), settings, common.class_weight)
+        network, _ = split_schedule(OmegaConf.to_container(cfg.models[gen.model], resolve=True))
+        clf = TorchClassifier(network, settings, common.class_weight)
         clf.fit(*stack[0], *stack[1])
         save_checkpoint(to_checkpoint(clf), Path(cfg.paths.models) / "all" / f"{gen.model}.pt")
         result["all_shapes"] = {s: classification_metrics(subset[s][2][1], clf.predict_proba(subset[s][2][0]))

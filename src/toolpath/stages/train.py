@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import torch
-from omegaconf import OmegaConf
 
 from toolpath import config, tracking
 from toolpath.models import MODEL_NAMES, TorchClassifier, build
@@ -25,6 +24,7 @@ from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import load_windows, save_checkpoint, write_json
 from toolpath.training.metrics import classification_metrics
 from toolpath.training.progress import EpochBar
+from toolpath.training.setup import model_and_settings
 
 PLOT_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val_accuracy")
 
@@ -39,16 +39,13 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> None:
     args = _parse(argv)
     cfg = config.load()
-    common, schedule = cfg.train.common, cfg.train[args.shape]
+    common = cfg.train.common
     torch.set_num_threads(common.threads)
     torch.use_deterministic_algorithms(True)
     data = load_windows(Path(cfg.paths.windows) / f"{args.shape}.npz")
     parts = {name: (data["windows"][data["split"] == k], data["label"][data["split"] == k])
              for k, name in enumerate(("train", "val", "test"))}
-    network = OmegaConf.to_container(cfg.models[args.model], resolve=True)
-    settings = {**OmegaConf.to_container(schedule), "patience": common.patience, "weight_decay": common.weight_decay,
-                "augment": common.augment, "aux_loss_weight": common.aux_loss_weight,
-                "seed": config.seed_for(cfg.seed, "train", args.shape, args.model)}
+    network, settings = model_and_settings(cfg, args.shape, args.model)
     name = f"{args.shape}-{args.model}"
     params = {**config.flat(network, "model"), **config.flat(settings, "train"), "class_weight": common.class_weight}
     with tracking.stage_run(f"train@{name}", params, shape=args.shape, model=args.model):

@@ -1,0 +1,169 @@
+"""The Optuna sweep (python -m toolpath.sweep) on smoke windows, in a temporary copy of conf/."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import mlflow
+import optuna
+import pytest
+from omegaconf import OmegaConf
+
+import toolpath.models  # noqa: F401  (before toolpath.training: the two import each other)
+from conftest import REPO
+from toolpath import config
+from toolpath.stages import generate, label
+from toolpath.sweep import overrides, parse_space
+from toolpath.sweep.__main__ import _shares
+from toolpath.sweep.__main__ import main as sweep_main
+from toolpath.sweep.objective import compose
+from toolpath.training.setup import model_and_settings
+
+SMOKE = ["+experiment=smoke"]
+
+
+@pytest.fixture(scope="module")
+def windows_dir(tmp_path_factory):
+    """conf/ and smoke gear windows in a directory of their own (built once for the module)."""
+    root = tmp_path_factory.mktemp("sweep")
+    shutil.copytree(REPO / "conf", root / "conf")
+    config.compose(SMOKE, root=root)
+    old = os.getcwd()
+    env = {k: os.environ.get(k) for k in ("MLFLOW_TRACKING_URI", "DVC_ROOT")}
+    os.environ.update(MLFLOW_TRACKING_URI=f"sqlite:///{root}/stages.db", DVC_ROOT=str(root))
+    try:
+        os.chdir(root)
+        generate.main(["--shape", "gear"])
+        label.main(["--shape", "gear"])
+    finally:
+        os.chdir(old)
+        for key, value in env.items():
+            os.environ.pop(key) if value is None else os.environ.__setitem__(key, value)
+    return root / "data" / "windows"
+
+
+@pytest.fixture
+def sweep_dir(tmp_path, windows_dir, monkeypatch):
+    shutil.copytree(REPO / "conf", tmp_path / "conf")
+    shutil.copytree(windows_dir, tmp_path / "data" / "windows")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path}/mlflow.db")
+    monkeypatch.setenv("DVC_ROOT", str(tmp_path))
+    monkeypatch.delenv("TOOLPATH_SWEEP_STORAGE", raising=False)
+    return tmp_path
+
+
+def test_space_turns_samples_into_hydra_overrides():
+    space = {"lr": {"key": "train.{shape}.lr", "type": "float", "low": 1e-4, "high": 1e-2, "log": True},
+             "hidden": {"key": "models.mcrl.mlp_hidden", "type": "choice", "choices": [[8, 4], [16, 8]]}}
+    params = parse_space(space, "gear")
+    assert [p.key for p in params] == ["train.gear.lr", "models.mcrl.mlp_hidden"]
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=1))
+    trial = study.ask()
+    values = {p.name: p.value(p.suggest(trial)) for p in params}
+    assert values["hidden"] in ([8, 4], [16, 8]) and 1e-4 <= values["lr"] <= 1e-2
+    text = overrides(params, values)
+    assert text[1] in ("models.mcrl.mlp_hidden=[8,4]", "models.mcrl.mlp_hidden=[16,8]")
+    assert params[1].sampled([16, 8]) == "16,8" and params[1].sampled([1, 2]) is None
+    assert params[0].sampled(1.0) is None  # outside [low, high]
+    with pytest.raises(ValueError, match="sweep.space.bad: type"):
+        parse_space({"bad": {"key": "x", "type": "normal"}}, "gear")
+    with pytest.raises(ValueError, match="low < high"):
+        parse_space({"bad": {"key": "x", "type": "float", "low": 1, "high": 1}}, "gear")
+    assert _shares(5, 2) == [3, 2] and _shares(1, 4) == [1] and _shares(0, 2) == []
+
+
+def _trial_runs(study, uri=None):
+    client = mlflow.MlflowClient(tracking_uri=uri or os.environ["MLFLOW_TRACKING_URI"])
+    runs = client.search_runs([client.get_experiment_by_name("cnc-curvature-sweeps").experiment_id])
+    parent = [r for r in runs if r.data.tags.get("sweep_role") == "parent" and r.info.run_name == study]
+    assert len(parent) == 1
+    children = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent[0].info.run_id]
+    return parent[0], children
+
+
+def test_smoke_sweep_runs_trials_in_parallel_logs_nested_runs_and_writes_the_tuned_config(sweep_dir):
+    assert sweep_main([*SMOKE, "sweep.n_trials=3", "sweep.workers=2"]) == 0
+    study = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db")
+    assert [t.state.name for t in study.trials] == ["COMPLETE"] * 3
+    assert study.trials[0].user_attrs["default_config"]  # trial 0 is the composed configuration
+    parent, children = _trial_runs("mcrl-gear")
+    assert sorted(r.info.run_name for r in children) == ["trial-0", "trial-1", "trial-2"]
+    assert {r.data.tags["worker"] for r in children} == {"0", "1"}  # two processes ran trials
+    best = [r for r in children if r.data.tags.get("best_trial") == "true"]
+    assert len(best) == 1 and best[0].info.run_name == f"trial-{study.best_trial.number}"
+    assert parent.data.metrics["best_value"] == pytest.approx(study.best_value)
+    assert best[0].data.metrics["objective"] == pytest.approx(study.best_value)
+    summary = json.loads((sweep_dir / "reports/sweep/mcrl-gear.json").read_text())
+    assert summary["best"]["number"] == study.best_trial.number and summary["default"]["number"] == 0
+    for name in ("history", "importance"):
+        assert (sweep_dir / f"reports/figures/sweep_mcrl-gear_{name}.png").stat().st_size > 1000
+    # the tuned config is a model config the train stage accepts, schedule included
+    tuned = OmegaConf.load(sweep_dir / "conf/model/mcrl_tuned.yaml")
+    assert tuned._target_ == "toolpath.models.MCRL" and tuned.dropout == pytest.approx(study.best_params["dropout"])
+    cfg = compose(sweep_dir, [*SMOKE, "model@models.mcrl=mcrl_tuned"])
+    network, settings = model_and_settings(cfg, "gear", "mcrl")
+    assert "schedule" not in network and settings["lr"] == pytest.approx(study.best_params["lr"])
+    assert settings["batch_size"] == study.best_params["batch_size"]
+    # a resumed study continues: one more trial, numbered 3
+    assert sweep_main([*SMOKE, "sweep.n_trials=4", "sweep.workers=2"]) == 0
+    study = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db")
+    assert [t.number for t in study.trials] == [0, 1, 2, 3]
+    assert len(_trial_runs("mcrl-gear")[1]) == 4
+    # nothing left to run: the same command only refreshes the outputs
+    assert sweep_main([*SMOKE, "sweep.n_trials=4"]) == 0
+    assert len(optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db").trials) == 4
+
+
+def test_one_worker_sweeps_repeat_exactly_for_a_seed(sweep_dir):
+    results = []
+    for name in ("a", "b"):
+        assert sweep_main([*SMOKE, "sweep.n_trials=2", "sweep.workers=1", f"sweep.study={name}"]) == 0
+        study = optuna.load_study(study_name=name, storage=f"sqlite:///{sweep_dir}/optuna.db")
+        results.append([(t.params, t.value) for t in study.trials])
+    assert results[0] == results[1]
+
+
+def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):
+    assert sweep_main(["--config", "nope"]) == 2
+    assert "conf/sweep/nope.yaml not found" in capsys.readouterr().err
+    assert sweep_main([*SMOKE, "sweep.shape=maple_leaf"]) == 2  # no windows for that shape here
+    assert "dvc repro label@maple_leaf" in capsys.readouterr().err
+    assert sweep_main([*SMOKE, "sweep.model=unknown"]) == 2
+    assert "sweep.model" in capsys.readouterr().err
+
+
+POSTGRES = os.environ.get("TOOLPATH_TEST_POSTGRES")
+
+
+@pytest.mark.postgres
+@pytest.mark.skipif(not POSTGRES, reason="TOOLPATH_TEST_POSTGRES not set (.ci/run starts a PostgreSQL server)")
+def test_two_workers_share_one_study_in_postgresql(sweep_dir):
+    """Two sweep processes (as on two machines) against one PostgreSQL database, concurrently."""
+    import sqlalchemy
+
+    tag = f"t{os.getpid()}_{int(time.time())}"
+    admin = sqlalchemy.create_engine(f"{POSTGRES}/postgres", isolation_level="AUTOCOMMIT")
+    with admin.connect() as conn:
+        for db in ("optuna", "mlflow"):
+            conn.execute(sqlalchemy.text(f"CREATE DATABASE {db}_{tag}"))
+    admin.dispose()
+    env = {**os.environ, "TOOLPATH_SWEEP_STORAGE": f"{POSTGRES}/optuna_{tag}",
+           "MLFLOW_TRACKING_URI": f"{POSTGRES}/mlflow_{tag}"}
+    cmd = [sys.executable, "-m", "toolpath.sweep", "--trials", "2", *SMOKE, "sweep.workers=1"]
+    workers = [subprocess.Popen(cmd, cwd=sweep_dir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                text=True) for _ in range(2)]
+    outputs = [w.communicate(timeout=600)[0] for w in workers]
+    assert [w.returncode for w in workers] == [0, 0], "\n".join(o[-2000:] for o in outputs)
+    storage = optuna.storages.RDBStorage(env["TOOLPATH_SWEEP_STORAGE"])
+    trials = optuna.load_study(study_name="mcrl-gear", storage=storage).trials
+    storage.engine.dispose()
+    assert sorted(t.number for t in trials) == list(range(4))  # none lost, none twice
+    assert all(t.state.name == "COMPLETE" for t in trials)
+    assert sum(bool(t.user_attrs.get("default_config")) for t in trials) == 1
+    _, children = _trial_runs("mcrl-gear", env["MLFLOW_TRACKING_URI"])
+    assert sorted(int(r.data.tags["optuna_trial"]) for r in children) == list(range(4))
+    assert sum(r.data.tags.get("best_trial") == "true" for r in children) == 1

@@ -1,0 +1,50 @@
+"""The MLflow store shared by parallel writers (DVC queue workers, sweep workers)."""
+
+import multiprocessing
+import os
+
+import pytest
+
+from toolpath import tracking
+
+
+def _open_store(uri: str) -> str:
+    os.environ["MLFLOW_TRACKING_URI"] = uri
+    store = tracking.client()
+    return tracking.experiment_id(store)
+
+
+def test_processes_opening_a_new_sqlite_store_at_once_all_succeed(tmp_path):
+    """A new store is migrated by whoever opens it first; without the init lock, two processes
+    migrating one file at once fail ('duplicate column name', alembic row mismatch)."""
+    uri = f"sqlite:///{tmp_path}/mlflow.db?timeout=60"
+    with multiprocessing.get_context("spawn").Pool(3) as pool:
+        ids = pool.map(_open_store, [uri] * 3)
+    assert len(set(ids)) == 1  # one experiment, created once
+
+
+def test_default_store_waits_for_the_write_lock(monkeypatch, tmp_path):
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.setenv("DVC_ROOT", str(tmp_path))
+    assert tracking.tracking_uri() == f"sqlite:///{tmp_path}/mlflow.db?timeout={tracking.SQLITE_BUSY_SECONDS}"
+
+
+def test_retry_gives_up_on_errors_that_are_not_races():
+    calls = []
+
+    def flaky():
+        calls.append(1)
+        if len(calls) < 3:
+            raise RuntimeError("database is locked")
+        return "ok"
+
+    assert tracking.with_retry(flaky) == "ok" and len(calls) == 3
+    calls.clear()
+
+    def wrong():
+        calls.append(1)
+        raise ValueError("bad value")
+
+    with pytest.raises(ValueError):
+        tracking.with_retry(wrong)
+    assert len(calls) == 1  # not a race: not retried
