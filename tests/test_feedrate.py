@@ -69,3 +69,82 @@ def test_polyline_radius_of_a_discretised_circle_and_a_square_corner():
     short = np.array([[0.0, 0.0], [0.02, 0.0], [0.02, 0.02]])  # then half a segment bounds the arc
     assert polyline_radius(short, 1.0)[1] == pytest.approx(0.01)
     assert polyline_radius(np.array([[0, 0], [1, 0], [0, 0]], dtype=float), 0.01)[1] < 1e-12  # reversal: stop
+
+
+# --- the planner: sensitive / non-sensitive intervals, S-curve ramps ---------------------------------
+
+from toolpath.feedrate.planner import arc_length, plan, stop_at_every_vertex_time  # noqa: E402
+from toolpath.feedrate.scurve import ramp_distance, ramp_samples, ramp_time  # noqa: E402
+
+
+def test_s_curve_ramp_reaches_its_speed_within_the_acceleration_and_jerk_limits():
+    A, J = MACHINE.tangential_acceleration, MACHINE.tangential_jerk
+    for v0, v1 in ((0.0, 100.0), (100.0, 20.0), (10.0, 12.0)):
+        t, s, v, a, j = ramp_samples(v0, v1, A, J, 1e-4)
+        assert v[0] == pytest.approx(v0) and v[-1] == pytest.approx(v1, abs=1e-9)
+        assert a[0] == 0.0 and a[-1] == pytest.approx(0.0, abs=1e-9)
+        assert np.abs(a).max() <= A + 1e-9 and np.abs(j).max() <= J
+        assert t[-1] == pytest.approx(ramp_time(v0, v1, A, J)) and s[-1] == pytest.approx(ramp_distance(v0, v1, A, J))
+    # by hand: 0 -> 100 mm/s with A = 2000, J = 50000: t_j = 0.04 s, t_a = 0.01 s, 0.09 s and 4.5 mm
+    assert ramp_time(0.0, 100.0, A, J) == pytest.approx(0.09) and ramp_distance(0.0, 100.0, A, J) == pytest.approx(4.5)
+
+
+def _limits_hold(p, points, rho):
+    vertex_speed = np.interp(arc_length(points), p.s, p.v)
+    assert np.all(vertex_speed <= feed_limit(rho, MACHINE) * (1 + 1e-6) + 1e-9)
+    assert np.all(chord_error(vertex_speed, rho, MACHINE.period) <= MACHINE.chord_error * (1 + 1e-6))
+    assert np.abs(p.a).max() <= MACHINE.tangential_acceleration + 1e-6
+    assert np.abs(p.j).max() <= MACHINE.tangential_jerk + 1e-6
+    assert p.v.min() >= -1e-9 and p.v[0] == 0.0 and p.v[-1] == pytest.approx(0.0, abs=1e-9)
+    assert p.s[-1] == pytest.approx(arc_length(points)[-1], rel=1e-9)
+
+
+def test_a_straight_line_runs_at_the_programmed_feed():
+    points = np.array([[0.0, 0.0], [50.0, 0.0], [100.0, 0.0]])
+    p = plan(points, polyline_radius(points, 0.01), MACHINE)
+    assert p.v.max() == pytest.approx(MACHINE.feed)
+    expected = 2 * ramp_time(0, 100, 2000, 50000) + (100.0 - 2 * 4.5) / 100.0
+    assert p.time == pytest.approx(expected)
+    _limits_hold(p, points, polyline_radius(points, 0.01))
+
+
+def test_a_circle_runs_at_its_curvature_limit():
+    r = 2.0
+    angle = np.linspace(0, 2 * np.pi, 2001)
+    points = np.c_[r * np.cos(angle), r * np.sin(angle)]
+    rho = np.full(len(points), r)  # the analytic curvature of the circle
+    p = plan(points, rho, MACHINE, straight=False)
+    cruise = p.v[len(p.v) // 2]
+    assert cruise == pytest.approx(float(feed_limit(r, MACHINE)))
+    assert cruise < MACHINE.feed
+    _limits_hold(p, points, rho)
+
+
+def test_square_corner_slows_down_and_the_time_lies_between_the_bounds():
+    points = np.array([[0.0, 0.0], [40.0, 0.0], [40.0, 40.0], [0.0, 40.0]])
+    rho = polyline_radius(points, 0.01)
+    p = plan(points, rho, MACHINE)
+    _limits_hold(p, points, rho)
+    corner = np.interp(40.0, p.s, p.v)
+    assert corner == pytest.approx(float(feed_limit(rho[1], MACHINE)), rel=1e-6)
+    assert p.time < stop_at_every_vertex_time(points, MACHINE)
+    straight = plan(np.array([[0.0, 0.0], [120.0, 0.0]]), np.full(2, np.inf), MACHINE)
+    assert p.time > straight.time  # same length, the corners cost time
+
+
+def test_a_sharp_corner_next_to_the_start_lowers_the_speed_until_the_ramp_fits():
+    """The first segment is 0.2 mm: too short to reach the corner's limit from rest."""
+    points = np.array([[0.0, 0.0], [0.2, 0.0], [0.2, 30.0], [10.0, 30.0], [10.0, 30.3]])
+    rho = polyline_radius(points, 0.05)
+    p = plan(points, rho, MACHINE)
+    _limits_hold(p, points, rho)
+    first = p.intervals[0]
+    assert first.speed <= ramp_reachable(0.2) + 1e-9
+
+
+def ramp_reachable(length):
+    lo, hi = 0.0, MACHINE.feed
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if ramp_distance(0.0, mid, 2000.0, 50000.0) <= length else (lo, mid)
+    return lo
