@@ -73,7 +73,8 @@ def test_polyline_radius_of_a_discretised_circle_and_a_square_corner():
 
 # --- the planner: sensitive / non-sensitive intervals, S-curve ramps ---------------------------------
 
-from toolpath.feedrate.planner import arc_length, plan, stop_at_every_vertex_time  # noqa: E402
+from toolpath.feedrate.bounds import stop_at_every_vertex_time, toppra_time  # noqa: E402
+from toolpath.feedrate.planner import arc_length, plan  # noqa: E402
 from toolpath.feedrate.scurve import ramp_distance, ramp_samples, ramp_time  # noqa: E402
 
 
@@ -127,7 +128,8 @@ def test_square_corner_slows_down_and_the_time_lies_between_the_bounds():
     _limits_hold(p, points, rho)
     corner = np.interp(40.0, p.s, p.v)
     assert corner == pytest.approx(float(feed_limit(rho[1], MACHINE)), rel=1e-6)
-    assert p.time < stop_at_every_vertex_time(points, MACHINE)
+    lower, upper = toppra_time(points, rho, MACHINE), stop_at_every_vertex_time(points, MACHINE)
+    assert lower <= p.time <= upper
     straight = plan(np.array([[0.0, 0.0], [120.0, 0.0]]), np.full(2, np.inf), MACHINE)
     assert p.time > straight.time  # same length, the corners cost time
 
@@ -148,3 +150,17 @@ def ramp_reachable(length):
         mid = (lo + hi) / 2
         lo, hi = (mid, hi) if ramp_distance(0.0, mid, 2000.0, 50000.0) <= length else (lo, mid)
     return lo
+
+
+def test_the_planner_lies_between_the_bounds_on_a_smooth_curve_and_a_rough_polyline():
+    rng = np.random.default_rng(3)
+    angle = np.linspace(0, np.pi, 400)
+    arc = np.c_[3 * np.cos(angle), 3 * np.sin(angle)]  # a half circle, analytic curvature
+    p = plan(arc, np.full(len(arc), 3.0), MACHINE, straight=False)
+    assert toppra_time(arc, np.full(len(arc), 3.0), MACHINE, straight=False) <= p.time * (1 + 1e-6)
+    assert p.time <= stop_at_every_vertex_time(arc, MACHINE)
+    rough = np.c_[np.linspace(0, 20, 50), 0.05 * rng.standard_normal(50)]  # a G01 path with noise
+    rho = polyline_radius(rough, 0.01)
+    p = plan(rough, rho, MACHINE)
+    _limits_hold(p, rough, rho)
+    assert toppra_time(rough, rho, MACHINE) <= p.time * (1 + 1e-6) <= stop_at_every_vertex_time(rough, MACHINE)

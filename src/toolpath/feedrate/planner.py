@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from toolpath.feedrate.limits import Machine, feed_limit
-from toolpath.feedrate.scurve import ramp_distance, ramp_samples, ramp_time
+from toolpath.feedrate.scurve import ramp_distance, ramp_samples
 
 
 @dataclass(frozen=True)
@@ -203,21 +203,3 @@ def _profile(intervals: tuple[Interval, ...], machine: Machine, dt: float) -> Pl
         return Plan(intervals, 0.0, zero, zero, zero, zero, zero)
     t, s, v, a, j = (np.concatenate([p[i] for p in pieces]) for i in range(5))
     return Plan(intervals, float(t0), t, s, v, a, j)
-
-
-def stop_at_every_vertex_time(points: np.ndarray, machine: Machine) -> float:
-    """Upper bound: rest at every vertex, each segment a rest-to-rest S-curve move capped at the feed."""
-    A, J, feed = machine.tangential_acceleration, machine.tangential_jerk, machine.feed
-    total = 0.0
-    for length in np.diff(arc_length(points)):
-        if length <= 0:
-            continue
-        if 2 * ramp_distance(0.0, feed, A, J) <= length:
-            total += 2 * ramp_time(0.0, feed, A, J) + (length - 2 * ramp_distance(0.0, feed, A, J)) / feed
-            continue
-        lo, hi = 0.0, feed
-        for _ in range(80):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if 2 * ramp_distance(0.0, mid, A, J) <= length else (lo, mid)
-        total += 2 * ramp_time(0.0, lo, A, J)
-    return total
