@@ -164,3 +164,23 @@ def test_the_planner_lies_between_the_bounds_on_a_smooth_curve_and_a_rough_polyl
     p = plan(rough, rho, MACHINE)
     _limits_hold(p, rough, rho)
     assert toppra_time(rough, rho, MACHINE) <= p.time * (1 + 1e-6) <= stop_at_every_vertex_time(rough, MACHINE)
+
+
+def test_bands_split_a_curve_of_varying_curvature_and_save_time():
+    """The paper runs a whole sensitive run at its lowest limit; bands (beyond the paper) do not."""
+    t = np.linspace(0.0, 1.0, 600)
+    spiral = np.c_[(1 + 9 * t) * np.cos(3 * np.pi * t), (1 + 9 * t) * np.sin(3 * np.pi * t)]
+    rho = _discrete_radius(spiral)
+    paper = plan(spiral, rho, MACHINE, straight=False)
+    banded = plan(spiral, rho, MACHINE, straight=False, band=0.1)
+    assert len(banded.intervals) > len(paper.intervals)
+    assert toppra_time(spiral, rho, MACHINE, straight=False) <= banded.time * (1 + 1e-6) < paper.time
+    _limits_hold(banded, spiral, rho)
+
+
+def _discrete_radius(points):
+    """Radius of the circle through each point and its two neighbours (inf at the ends)."""
+    a, b, c = points[:-2], points[1:-1], points[2:]
+    ab, bc, ca = (np.linalg.norm(x - y, axis=1) for x, y in ((a, b), (b, c), (c, a)))
+    cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    return np.concatenate([[np.inf], ab * bc * ca / (2 * cross), [np.inf]])

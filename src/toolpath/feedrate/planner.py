@@ -6,16 +6,19 @@ Eq. 22 lies below the programmed feed (sensitive) and where it does not (non-sen
 them with S-curve speed changes under tangential acceleration and jerk limits.  What the text
 leaves open, and what we chose:
 
-1. **Interval bands.**  A sensitive interval is a run of consecutive path points whose limits lie
-   within ``band`` (default 10 %) of the run's lowest limit; a longer run of falling or rising
-   limits is cut into several intervals.  Each interval is run at its lowest limit (constant speed),
-   so every constraint of Eq. 15-22 holds inside it.  A single sharp vertex is an interval of
-   length zero: the tool passes the vertex at its limit.
-2. **Where ramps go.**  A speed change between two intervals lies wholly inside the faster one
-   (deceleration before the slower interval starts, acceleration after it ends), so the slower
-   interval never runs above its limit.  Ramps may therefore run into any faster neighbour,
-   including a non-sensitive interval, and the path starts and ends at rest (two virtual intervals
-   of speed 0 and length 0).
+1. **Intervals.**  As the paper says, a sensitive interval is a run of consecutive sample points
+   whose limit lies below the programmed feed, run at its lowest limit (constant speed), so every
+   constraint of Eq. 15-22 holds inside it.  Beyond the paper, ``band`` (off by default) cuts a run
+   into several intervals whose limits lie within ``band`` of each other, so a long curve of
+   varying curvature is not run everywhere at its tightest speed.  On a G01 path the limits bind
+   at the vertices and the straight segments between them are non-sensitive: a single sharp vertex
+   is a sensitive interval of length zero, passed at its limit.
+2. **Where ramps go.**  The paper accelerates and decelerates in the non-sensitive intervals; we
+   put each speed change wholly inside the faster of its two intervals (deceleration before the
+   slower one starts, acceleration after it ends), which is a non-sensitive interval whenever one
+   lies between, and otherwise the faster sensitive one, whose speed the ramp never exceeds.  The
+   path starts and ends at rest: two virtual intervals of speed 0 and length 0, so a sensitive
+   interval at either end hosts its own ramp from or to rest.
 3. **Too short to ramp.**  When an interval is too short for the ramps it hosts, its speed is
    lowered (bisection) until they fit; lowering one speed may push a ramp into a neighbour, so the
    pass repeats until no speed changes.  Speeds only fall, so this terminates.
@@ -68,7 +71,7 @@ def arc_length(points: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.hypot(seg[:, 0], seg[:, 1]))])
 
 
-def intervals_from_limits(s: np.ndarray, limit: np.ndarray, feed: float, band: float = 0.1,
+def intervals_from_limits(s: np.ndarray, limit: np.ndarray, feed: float, band: float = np.inf,
                           straight: bool = False) -> list[tuple[float, float, float, bool]]:
     """(start, end, lowest limit, sensitive) of each interval (choice 1 of the module docstring).
 
@@ -159,12 +162,12 @@ def fit_speeds(lengths: list[float], limits: list[float], machine: Machine) -> l
     return speeds[1:-1]
 
 
-def plan(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool = True, band: float = 0.1,
+def plan(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool = True, band: float = np.inf,
          dt: float | None = None) -> Plan:
     """Plan the feed along ``points`` (N, 2) with radius of curvature ``rho`` (N,) at each point.
 
     ``straight=True``: a G01 path (the limits bind at its vertices); ``False``: points sampled on a
-    smooth curve (NURBS, Bezier), grouped into bands of similar limit.
+    smooth curve (NURBS, Bezier); ``band``: see choice 1 of the module docstring.
     """
     s = arc_length(points)
     limit = feed_limit(rho, machine)
