@@ -1,0 +1,205 @@
+"""Local corner smoothing by NURBS (seed 002, Sec. "Local corner smoothing", Eq. 6-8).
+
+A corner of turning angle theta is drawn in its own frame (Fig. 2b, Fig. 4): the corner P_i at the
+origin, the curve symmetric about the y axis, the legs going down-left and down-right, so
+P_{i-1} = (-L sin phi, -L cos phi) and P_{i+1} = (L sin phi, -L cos phi) with phi = (pi - theta)/2,
+and P_{i-2}, P_{i+2} at twice that distance.
+
+* **Method 1**: the cubic NURBS on the five points P_{i-2}, P_{i-1}, P_i, P_{i+1}, P_{i+2}.
+* **Method 2**: seven points, with P_{i+3} between P_{i-1} and P_i and its mirror P_{i+4} between
+  P_i and P_{i+1}: P_{i-2}, P_{i-1}, P_{i+3}, P_i, P_{i+4}, P_{i+1}, P_{i+2}.
+
+The curve is clamped, so it leaves the path at P_{i-2} and rejoins it at P_{i+2} along the legs.
+Our reading of Eq. 7, where the text leaves it open:
+- delta_2 is the distance from the curve's middle C(1/2) to the corner P_i;
+- delta_1 is the largest distance from the curve to the original two legs;
+- the last line of Eq. 7 sets delta_2 to ``delta_target`` (default delta_max) by solving for the
+  weights, following the paper's main-control-point rule: if P_i has the largest N_k(1/2) w_k, then
+  w_i = 1 and w_{i+3} = w_{i+4} = w is solved; otherwise w_{i+3} = w_{i+4} = 1 and w_i is solved
+  (bisection; C(1/2) moves monotonically along the y axis with either weight).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from toolpath.optimize.nurbs import Nurbs
+
+SAMPLES = 401  # parameters at which curvature and deviation are evaluated
+
+
+@dataclass(frozen=True)
+class Corner:
+    """A corner in its own frame: turning angle (rad) and leg length L (mm) to P_{i-1}, P_{i+1}."""
+
+    turn: float
+    leg: float
+
+    @property
+    def half_opening(self) -> float:
+        return (math.pi - self.turn) / 2.0
+
+    def leg_point(self, distance: float, side: int) -> np.ndarray:
+        """The point at ``distance`` from the corner on the left (-1) or right (+1) leg."""
+        phi = self.half_opening
+        return np.array([side * distance * math.sin(phi), -distance * math.cos(phi)])
+
+    def method1_points(self) -> np.ndarray:
+        return np.array([self.leg_point(2 * self.leg, -1), self.leg_point(self.leg, -1), [0.0, 0.0],
+                         self.leg_point(self.leg, 1), self.leg_point(2 * self.leg, 1)])
+
+    def method2_points(self, extra: np.ndarray) -> np.ndarray:
+        """The seven control points with P_{i+3} = ``extra`` (x < 0) and its mirror P_{i+4}."""
+        mirror = np.array([-extra[0], extra[1]])
+        p = self.method1_points()
+        return np.array([p[0], p[1], extra, p[2], mirror, p[3], p[4]])
+
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of P_{i+3} (Eq. 7): between P_{i-1} and P_i in x and in y."""
+        p_prev = self.leg_point(self.leg, -1)
+        return np.minimum(p_prev, 0.0), np.maximum(p_prev, 0.0)
+
+
+def distance_to_legs(points: np.ndarray, corner: Corner) -> np.ndarray:
+    """Distance of each point to the nearer of the two legs (segments from the corner, length 2L)."""
+    out = np.full(len(points), np.inf)
+    for side in (-1, 1):
+        end = corner.leg_point(2 * corner.leg, side)
+        t = np.clip(points @ end / (end @ end), 0.0, 1.0)
+        out = np.minimum(out, np.linalg.norm(points - t[:, None] * end, axis=1))
+    return out
+
+
+def _angle(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    """The angle abc at b (rad)."""
+    u, v = a - b, c - b
+    return math.acos(float(np.clip(u @ v / (np.linalg.norm(u) * np.linalg.norm(v) + 1e-300), -1.0, 1.0)))
+
+
+def solve_weights(points: np.ndarray, delta_target: float) -> np.ndarray | None:
+    """Weights of the seven control points that put C(1/2) at ``delta_target`` below P_i (the last
+    line of Eq. 7, with the main-control-point rule of the module docstring); None if no positive
+    weight does.  C(1/2) = sum N_k w_k P_k / sum N_k w_k is linear over linear in the free weight w,
+    so y(w) = -delta_target has the closed-form root w = -(A + delta a) / (B + delta b)."""
+    n = _basis_at_half(len(points))
+    free = [2, 4] if np.argmax(n[[2, 3, 4]]) == 1 else [3]
+    fixed = [k for k in range(len(points)) if k not in free]
+    y = points[:, 1] - points[3, 1]  # heights relative to the corner
+    A, a = float(n[fixed] @ y[fixed]), float(n[fixed].sum())
+    B, b = float(n[free] @ y[free]), float(n[free].sum())
+    denominator = B + delta_target * b
+    if abs(denominator) < 1e-15:
+        return None
+    w = -(A + delta_target * a) / denominator
+    if not (1e-6 < w < 1e6):
+        return None
+    weights = np.ones(len(points))
+    weights[free] = w
+    return weights
+
+
+@functools.lru_cache(maxsize=8)
+def _basis_at_half(count: int) -> np.ndarray:
+    """N_k(1/2) of a clamped uniform cubic with ``count`` control points (the knots never change)."""
+    return Nurbs(np.zeros((count, 2)), np.ones(count)).basis(0.5)
+
+
+@dataclass(frozen=True)
+class CornerCurve:
+    """A smoothed corner: its NURBS, peak curvature (1/mm), delta_1, delta_2 (mm) and feasibility."""
+
+    curve: Nurbs
+    max_curvature: float
+    delta_1: float
+    delta_2: float
+    feasible: bool
+
+
+def evaluate(corner: Corner, points: np.ndarray, weights: np.ndarray, delta_max: float) -> CornerCurve:
+    """Curvature and errors of a candidate, and whether it meets Eq. 7 (the box and angle rules
+    apply to method 2, seven points)."""
+    curve = Nurbs(points, weights)
+    u = np.linspace(0.0, 1.0, SAMPLES)
+    c = curve(u)
+    rho = curve.radius(u)
+    delta_1 = float(distance_to_legs(c, corner).max())
+    delta_2 = float(np.linalg.norm(curve(0.5)[0] - points[len(points) // 2]))
+    feasible = max(delta_1, delta_2) <= delta_max * (1 + 1e-9) and np.all(np.isfinite(c))
+    if len(points) == 7:
+        lo, hi = corner.box()
+        extra = points[2]
+        inside = bool(np.all(extra > lo) and np.all(extra < hi))
+        apex = _angle(points[2], points[3], points[4])
+        feasible = feasible and inside and _angle(points[0], points[1], points[2]) > apex \
+            and _angle(points[1], points[2], points[3]) > apex
+    return CornerCurve(curve, float(np.max(1.0 / rho)), delta_1, delta_2, bool(feasible))
+
+
+def method1(corner: Corner, delta_max: float) -> CornerCurve:
+    """The five-point NURBS with unit weights."""
+    return evaluate(corner, corner.method1_points(), np.ones(5), delta_max)
+
+
+@dataclass(frozen=True)
+class PsoSettings:
+    """Eq. 8: inertia w, own-best c1, swarm-best c2 and the third term c3 (own best minus swarm best)."""
+
+    particles: int = 24
+    iterations: int = 40
+    inertia: float = 0.7
+    c1: float = 1.5
+    c2: float = 1.5
+    c3: float = 0.3
+    seed: int = 0
+
+
+def _candidate(corner: Corner, extra: np.ndarray, delta_max: float, delta_target: float) -> CornerCurve | None:
+    points = corner.method2_points(extra)
+    weights = solve_weights(points, delta_target)
+    return None if weights is None else evaluate(corner, points, weights, delta_max)
+
+
+def pso_corner(corner: Corner, delta_max: float = 0.1, delta_target: float | None = None,
+               settings: PsoSettings = PsoSettings(), curvature_limit: float = math.inf
+               ) -> tuple[CornerCurve | None, list[float]]:
+    """Method 2's extra points by PSO (Eq. 8) minimising the peak curvature under Eq. 7.
+
+    Particles move in the open box of P_{i+3} (positions are kept strictly inside it); an
+    infeasible candidate (including one whose peak curvature reaches ``curvature_limit``, Eq. 7's
+    cur_max) has infinite fitness, so the answer, when there is one, is feasible.
+    Returns the best corner (None if no particle ever met Eq. 7) and the best fitness per iteration.
+    """
+    target = delta_max if delta_target is None else delta_target
+    lo, hi = corner.box()
+    margin = 1e-6 * (hi - lo)
+    lo, hi = lo + margin, hi - margin
+    rng = np.random.default_rng(settings.seed)
+
+    def fitness(extra: np.ndarray) -> float:
+        found = _candidate(corner, extra, delta_max, target)
+        ok = found is not None and found.feasible and found.max_curvature < curvature_limit
+        return found.max_curvature if ok else math.inf
+
+    x = rng.uniform(lo, hi, (settings.particles, 2))
+    v = np.zeros_like(x)
+    best_x, best_f = x.copy(), np.array([fitness(p) for p in x])
+    g = int(np.argmin(best_f))
+    history = [float(best_f[g])]
+    for _ in range(settings.iterations):
+        r1, r2, r3 = rng.random((3, *x.shape))
+        gbest = best_x[g]
+        v = (settings.inertia * v + settings.c1 * r1 * (best_x - x) + settings.c2 * r2 * (gbest - x)
+             + settings.c3 * r3 * (best_x - gbest))
+        x = np.clip(x + v, lo, hi)
+        f = np.array([fitness(p) for p in x])
+        better = f < best_f
+        best_x[better], best_f[better] = x[better], f[better]
+        g = int(np.argmin(best_f))
+        history.append(float(best_f[g]))
+    if not math.isfinite(best_f[g]):
+        return None, history
+    return _candidate(corner, best_x[g], delta_max, target), history

@@ -1,0 +1,61 @@
+"""Seed 002's NURBS (Eq. 1-6) and local corner smoothing by PSO (Eq. 7-8) on hand cases."""
+
+import math
+
+import numpy as np
+import pytest
+
+from toolpath.optimize.corner import Corner, PsoSettings, distance_to_legs, evaluate, method1, pso_corner, solve_weights
+from toolpath.optimize.nurbs import Nurbs
+
+
+def test_rational_quadratic_quarter_circle_has_radius_one():
+    """The textbook NURBS circle: (1,0), (1,1), (0,1) with weights 1, sqrt(2)/2, 1 is exact (Eq. 1, 5, 6)."""
+    arc = Nurbs(np.array([[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), np.array([1.0, math.sqrt(0.5), 1.0]), degree=2)
+    u = np.linspace(0, 1, 51)
+    assert np.allclose(np.linalg.norm(arc(u), axis=1), 1.0)
+    assert np.allclose(arc.radius(u), 1.0)
+    line = Nurbs(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]), np.ones(4))
+    assert np.all(np.isinf(line.radius(u)))
+    assert arc.basis(0.5).sum() == pytest.approx(1.0)
+
+
+def test_square_corner_in_its_frame():
+    corner = Corner(turn=math.pi / 2, leg=1.0)
+    p = corner.method1_points()
+    assert np.allclose(p[1], [-math.sqrt(0.5), -math.sqrt(0.5)]) and np.allclose(p[2], [0, 0])
+    assert distance_to_legs(np.array([[0.0, -1.0]]), corner)[0] == pytest.approx(math.sqrt(0.5))
+    # the unit-weight five-point curve cuts the corner by 0.354 mm: more than the default 0.1 mm
+    assert not method1(corner, 0.1).feasible and method1(corner, 0.5).feasible
+
+
+def test_weights_put_the_middle_of_the_curve_at_the_target_error():
+    corner = Corner(turn=math.pi / 2, leg=1.0)
+    points = corner.method2_points(np.array([-0.3, -0.2]))
+    w = solve_weights(points, 0.08)
+    assert w is not None and w[2] == w[4]  # the symmetric pair
+    assert np.linalg.norm(Nurbs(points, w)(0.5)[0]) == pytest.approx(0.08)
+
+
+@pytest.mark.parametrize("turn_degrees", [60, 90, 135])
+def test_pso_returns_only_corners_that_meet_eq7_and_improves_on_its_start(turn_degrees):
+    corner = Corner(turn=math.radians(turn_degrees), leg=1.0)
+    best, history = pso_corner(corner, delta_max=0.1, settings=PsoSettings(particles=12, iterations=15, seed=1))
+    assert best is not None and best.feasible
+    assert max(best.delta_1, best.delta_2) <= 0.1 + 1e-9 and best.delta_2 == pytest.approx(0.1)
+    lo, hi = corner.box()
+    assert np.all(best.curve.points[2] > lo) and np.all(best.curve.points[2] < hi)
+    assert np.allclose(best.curve.points[4], best.curve.points[2] * [-1, 1])  # symmetric about the y axis
+    assert history[-1] <= history[0] and best.max_curvature == pytest.approx(history[-1])
+    again = evaluate(corner, best.curve.points, best.curve.weights, 0.1)
+    assert again.feasible and again.max_curvature == pytest.approx(best.max_curvature)
+
+
+def test_pso_is_seeded_and_says_so_when_nothing_is_feasible():
+    corner = Corner(turn=math.pi / 2, leg=1.0)
+    settings = PsoSettings(particles=8, iterations=5, seed=7)
+    a, b = pso_corner(corner, 0.1, settings=settings)[0], pso_corner(corner, 0.1, settings=settings)[0]
+    assert np.array_equal(a.curve.points, b.curve.points) and np.array_equal(a.curve.weights, b.curve.weights)
+    none, history = pso_corner(corner, delta_max=1e-9, settings=settings)
+    assert none is None and all(math.isinf(h) for h in history)
+    assert pso_corner(corner, 0.1, settings=settings, curvature_limit=0.5)[0] is None  # Eq. 7's cur_max
