@@ -59,3 +59,71 @@ def test_pso_is_seeded_and_says_so_when_nothing_is_feasible():
     none, history = pso_corner(corner, delta_max=1e-9, settings=settings)
     assert none is None and all(math.isinf(h) for h in history)
     assert pso_corner(corner, 0.1, settings=settings, curvature_limit=0.5)[0] is None  # Eq. 7's cur_max
+
+
+# --- FDLS / SDLS: the Double-ResNet surrogates ---------------------------------------------------------
+
+import io  # noqa: E402
+
+import torch  # noqa: E402
+
+from toolpath.optimize.corner_net import (  # noqa: E402
+    ResidualMLP,
+    fdls_data,
+    fit,
+    predict,
+    sdls_data,
+    smooth_corner,
+    solved_corners,
+)
+
+FAST = PsoSettings(particles=6, iterations=6)
+
+
+@pytest.fixture(scope="module")
+def trained():
+    samples = solved_corners(24, 0.1, seed=5, settings=FAST)
+    torch.manual_seed(0)
+    fdls, sdls = ResidualMLP(10, 2, width=16, layers=16, every=8), ResidualMLP(14, 7, width=16, layers=16, every=8)
+    curves = (fit(fdls, *fdls_data(samples), epochs=15, batch=16, lr=0.005, seed=1),
+              fit(sdls, *sdls_data(samples), epochs=15, batch=64, lr=0.001, seed=2))
+    return samples, fdls, sdls, curves
+
+
+def test_the_paper_network_is_64_layers_with_a_shortcut_every_8():
+    net = ResidualMLP(10, 2)
+    assert len(net.blocks) == 8 and sum(isinstance(m, torch.nn.Linear) for b in net.blocks for m in b) == 64
+    with pytest.raises(ValueError, match="multiple"):
+        ResidualMLP(10, 2, layers=60, every=8)
+
+
+def test_solved_corners_are_feasible_and_training_lowers_the_loss(trained):
+    samples, _, _, (fdls_curve, sdls_curve) = trained
+    assert len(samples) == 24
+    assert all(evaluate(s.corner, s.points, s.weights, 0.1).feasible for s in samples)
+    assert fdls_curve[-1] < fdls_curve[0] and sdls_curve[-1] < sdls_curve[0]
+
+
+def test_the_networks_reload_and_predict_deterministically(trained):
+    samples, fdls, sdls, _ = trained
+    buffer = io.BytesIO()
+    torch.save({"fdls": fdls.state_dict(), "sdls": sdls.state_dict()}, buffer)
+    buffer.seek(0)
+    state = torch.load(buffer, weights_only=True)
+    fdls2, sdls2 = ResidualMLP(10, 2, width=16, layers=16, every=8), ResidualMLP(14, 7, width=16, layers=16, every=8)
+    fdls2.load_state_dict(state["fdls"])
+    sdls2.load_state_dict(state["sdls"])
+    fdls2.eval()
+    sdls2.eval()
+    corner = samples[0].corner
+    for a, b in zip(predict(fdls, sdls, corner), predict(fdls2, sdls2, corner), strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_smooth_corner_never_returns_an_infeasible_corner(trained):
+    _, fdls, sdls, _ = trained
+    for turn in (40, 90, 140):
+        corner = Corner(turn=math.radians(turn), leg=1.5)
+        found, source = smooth_corner(fdls, sdls, corner, 0.1, FAST)
+        assert source in ("net", "repaired", "pso") and found.feasible
+        assert max(found.delta_1, found.delta_2) <= 0.1 + 1e-9

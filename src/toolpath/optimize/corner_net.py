@@ -1,0 +1,134 @@
+"""FDLS / SDLS (seed 002, Figs. 6-7): Double-ResNet surrogates of the PSO corner solver.
+
+* **FDLS** takes the five control points of method 1 (10 numbers, mm, in the corner's frame) and
+  predicts the extra point P_{i+3} (its mirror P_{i+4} follows by symmetry).
+* **SDLS** takes the seven control points of method 2 (14 numbers) and predicts the log-weights.
+
+Each is a stack of 64 fully connected layers with a shortcut every 8 (``ResidualMLP``) and
+dropout, trained with MSE and Adam (FDLS: batch 16, lr 0.005; SDLS: batch 64, lr 0.001) on corners
+that PSO solved.  A prediction is checked against Eq. 7: weights that miss the approximation
+error are repaired by the closed-form weight rule, and a corner that still fails goes back to PSO,
+so :func:`smooth_corner` never returns an infeasible corner.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from toolpath.optimize.corner import Corner, CornerCurve, PsoSettings, evaluate, pso_corner, solve_weights
+
+
+class ResidualMLP(nn.Module):
+    """``layers`` Linear+ReLU layers of ``width`` with an identity shortcut around every ``every`` of
+    them, dropout after each block, and linear input and output layers."""
+
+    def __init__(self, inputs: int, outputs: int, width: int = 64, layers: int = 64, every: int = 8,
+                 dropout: float = 0.1) -> None:
+        super().__init__()
+        if layers % every:
+            raise ValueError(f"layers ({layers}) must be a multiple of the shortcut spacing ({every})")
+        self.head = nn.Linear(inputs, width)
+        self.blocks = nn.ModuleList(
+            nn.Sequential(*[m for _ in range(every) for m in (nn.Linear(width, width), nn.ReLU())])
+            for _ in range(layers // every))
+        self.dropout = nn.Dropout(dropout)
+        self.tail = nn.Linear(width, outputs)
+        for block in self.blocks:  # residual branches start small, so the deep stack trains from the start
+            nn.init.zeros_(block[-2].weight)
+            nn.init.zeros_(block[-2].bias)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = torch.relu(self.head(x))
+        for block in self.blocks:
+            h = self.dropout(h + block(h))
+        return self.tail(h)
+
+
+@dataclass(frozen=True)
+class CornerSample:
+    """One corner PSO solved: its method-1 points, the extra point and the weights."""
+
+    corner: Corner
+    method1: np.ndarray   # (5, 2)
+    points: np.ndarray    # (7, 2)
+    weights: np.ndarray   # (7,)
+
+
+def solved_corners(count: int, delta_max: float, seed: int, settings: PsoSettings,
+                   turns: tuple[float, float] = (math.radians(30), math.radians(150)),
+                   legs: tuple[float, float] = (0.5, 3.0)) -> list[CornerSample]:
+    """``count`` random corners (turn and leg drawn from the ranges) with their PSO solutions; corners
+    PSO cannot solve under Eq. 7 are drawn again, so every sample is feasible."""
+    rng = np.random.default_rng(seed)
+    out: list[CornerSample] = []
+    while len(out) < count:
+        corner = Corner(turn=float(rng.uniform(*turns)), leg=float(rng.uniform(*legs)))
+        run = PsoSettings(**{**settings.__dict__, "seed": int(rng.integers(2**31))})
+        best, _ = pso_corner(corner, delta_max, settings=run)
+        if best is not None:
+            out.append(CornerSample(corner, corner.method1_points(), best.curve.points, best.curve.weights))
+    return out
+
+
+def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, lr: float, seed: int
+        ) -> list[float]:
+    """MSE and Adam, shuffled with ``seed``; the loss of each epoch (Figs. 8-9)."""
+    torch.manual_seed(seed)
+    generator = torch.Generator().manual_seed(seed)
+    X_t, Y_t = torch.as_tensor(X, dtype=torch.float32), torch.as_tensor(Y, dtype=torch.float32)
+    optimiser = torch.optim.Adam(net.parameters(), lr=lr)
+    curve = []
+    for _ in range(epochs):
+        net.train()
+        order = torch.randperm(len(X_t), generator=generator)
+        total = 0.0
+        for start in range(0, len(order), batch):
+            idx = order[start:start + batch]
+            optimiser.zero_grad()
+            loss = nn.functional.mse_loss(net(X_t[idx]), Y_t[idx])
+            loss.backward()
+            optimiser.step()
+            total += float(loss.detach()) * len(idx)
+        curve.append(total / len(X_t))
+    net.eval()
+    return curve
+
+
+def fdls_data(samples: list[CornerSample]) -> tuple[np.ndarray, np.ndarray]:
+    return (np.array([s.method1.ravel() for s in samples]), np.array([s.points[2] for s in samples]))
+
+
+def sdls_data(samples: list[CornerSample]) -> tuple[np.ndarray, np.ndarray]:
+    return (np.array([s.points.ravel() for s in samples]), np.log(np.array([s.weights for s in samples])))
+
+
+def predict(fdls: nn.Module, sdls: nn.Module, corner: Corner) -> tuple[np.ndarray, np.ndarray]:
+    """The seven control points and weights the two networks give for ``corner``."""
+    with torch.no_grad():
+        x = torch.as_tensor(corner.method1_points().ravel()[None], dtype=torch.float32)
+        extra = fdls(x)[0].double().numpy()
+        points = corner.method2_points(extra)
+        log_w = sdls(torch.as_tensor(points.ravel()[None], dtype=torch.float32))[0].double().numpy()
+    return points, np.exp(log_w)
+
+
+def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: float,
+                  settings: PsoSettings) -> tuple[CornerCurve | None, str]:
+    """The networks' corner if it meets Eq. 7 ('net'), else with repaired weights ('repaired'), else
+    PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either."""
+    points, weights = predict(fdls, sdls, corner)
+    found = evaluate(corner, points, weights, delta_max)
+    if found.feasible:
+        return found, "net"
+    repaired = solve_weights(points, delta_max)
+    if repaired is not None:
+        found = evaluate(corner, points, repaired, delta_max)
+        if found.feasible:
+            return found, "repaired"
+    best, _ = pso_corner(corner, delta_max, settings=settings)
+    return (best, "pso") if best is not None else (None, "infeasible")
