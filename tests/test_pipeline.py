@@ -106,7 +106,7 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     """Two queued experiments (a learning-rate grid), two queue workers, metrics in `dvc exp show`,
     and one MLflow parent run per experiment named after it (both workers write one SQLite store)."""
     work, env, dvc = smoke_copy(tmp_path)
-    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.gear.lr=1e-3,5e-4",
+    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.common.lr=1e-3,5e-4",
                         "train@gear-mlp"], work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
@@ -121,6 +121,9 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     accuracy = {rev["name"]: rev["data"]["metrics"]["reports/metrics/train/gear/mlp.json"]["data"]["test"]["accuracy"]
                 for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
     assert set(names) <= set(accuracy) and all(0.0 <= accuracy[n] <= 1.0 for n in names)
+    lrs = {rev["name"]: rev["data"]["params"]["params.yaml"]["data"]["train"]["common"]["lr"]
+           for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
+    assert sorted(lrs[n] for n in names) == [5e-4, 1e-3]
     client = mlflow.MlflowClient(tracking_uri=env["MLFLOW_TRACKING_URI"])
     runs = client.search_runs([client.get_experiment_by_name("cnc-curvature").experiment_id])
     parents = {r.info.run_name: r.info.run_id for r in runs if r.data.tags.get("pipeline_role") == "parent"}

@@ -108,6 +108,11 @@ def test_smoke_sweep_runs_trials_in_parallel_logs_nested_runs_and_writes_the_tun
     network, settings = model_and_settings(cfg, "gear", "mcrl")
     assert "schedule" not in network and settings["lr"] == pytest.approx(study.best_params["lr"])
     assert settings["batch_size"] == study.best_params["batch_size"]
+    # train.common.lr replaces each shape's rate; a tuned schedule is more specific still
+    plain = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042"])
+    assert model_and_settings(plain, "gear", "mlp")[1]["lr"] == 0.0042
+    tuned_too = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042", "model@models.mcrl=mcrl_tuned"])
+    assert model_and_settings(tuned_too, "gear", "mcrl")[1]["lr"] == pytest.approx(study.best_params["lr"])
     # a resumed study continues: one more trial, numbered 3
     assert sweep_main([*SMOKE, "sweep.n_trials=4", "sweep.workers=2"]) == 0
     study = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db")
