@@ -55,7 +55,11 @@ def _run(spec: SweepSpec, shares: list[int]) -> None:
     with Progress(*columns) as bar:
         task = bar.add_task("trials", total=sum(shares), best="")
         if len(shares) == 1:  # in this process: deterministic for a seed
-            run_trials(spec, shares[0], worker=0)
+            def advance(study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
+                bar.update(task, advance=1, best=f"best {study.best_value:.4f}"
+                           if study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)) else "")
+
+            run_trials(spec, shares[0], worker=0, callbacks=[advance])
         else:
             with ProcessPoolExecutor(len(shares), mp_context=get_context("spawn")) as pool:
                 futures = [pool.submit(run_trials, spec, n, k) for k, n in enumerate(shares)]

@@ -160,8 +160,9 @@ def _wait_for_parent(study: optuna.Study) -> str:
     return study.user_attrs[PARENT_ATTR]
 
 
-def run_trials(spec: SweepSpec, n_trials: int, worker: int) -> int:
-    """Run exactly ``n_trials`` trials of the study in this process; returns how many completed."""
+def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[Any] = ()) -> int:
+    """Run exactly ``n_trials`` trials of the study in this process; returns how many completed.
+    ``callbacks`` are Optuna's (called with the study and each finished trial)."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     os.environ.setdefault("DVC_ROOT", str(spec.root))  # the MLflow artefact root, as in the stages
     study = open_study(spec, worker)
@@ -202,5 +203,6 @@ def run_trials(spec: SweepSpec, n_trials: int, worker: int) -> int:
         completed += 1
         return value
 
-    study.optimize(objective, n_trials=n_trials, catch=(RuntimeError, ValueError, FloatingPointError))
+    study.optimize(objective, n_trials=n_trials, catch=(RuntimeError, ValueError, FloatingPointError),
+                   callbacks=list(callbacks))
     return completed
