@@ -43,8 +43,8 @@ def toppra_time(points: np.ndarray, rho: np.ndarray, machine: Machine, straight:
 
     def speed_limit(x: float) -> np.ndarray:
         v = cap.get(float(x))
-        if v is None:  # toppra asks at its grid points only; be safe elsewhere
-            v = float(np.interp(x, s, limit)) if not straight else machine.feed
+        if v is None:  # off the grid: on a G01 segment the feed, on a smooth curve the interpolated limit
+            v = machine.feed if straight else float(np.interp(x, s, limit))
         return np.array([[-v, v]])
 
     toppra.setup_logging("WARNING")

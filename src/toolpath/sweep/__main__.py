@@ -41,13 +41,12 @@ def _shares(total: int, workers: int) -> list[int]:
     return [total // workers + (k < total % workers) for k in range(workers)] if total else []
 
 
-def _run(spec: SweepSpec, shares: list[int]) -> None:
+def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
     """Run the shares (one process each when there are several) under a progress bar over the study."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from toolpath.sweep.study import open_study, run_trials
+    from toolpath.sweep.study import run_trials
 
-    study = open_study(spec)
     finished = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL)
     start = len(study.get_trials(states=finished))
     columns = (TextColumn(f"sweep {spec.study}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
@@ -99,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
               f"running {todo} with {min(spec.workers, max(todo, 1))} worker(s)")
         start = time.perf_counter()
         if todo:
-            _run(spec, _shares(todo, spec.workers))
+            _run(spec, study, _shares(todo, spec.workers))
         summary = finish(spec, study, seconds=time.perf_counter() - start)
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
