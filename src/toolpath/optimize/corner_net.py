@@ -14,6 +14,7 @@ so :func:`smooth_corner` never returns an infeasible corner.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,20 +60,30 @@ class CornerSample:
     weights: np.ndarray   # (7,)
 
 
+def draw_corners(count: int, seed: int, turns: tuple[float, float] = (math.radians(30), math.radians(150)),
+                 legs: tuple[float, float] = (0.5, 3.0)) -> list[tuple[Corner, int]]:
+    """``count`` corners drawn uniformly in turn (rad) and leg (mm), each with its own PSO seed."""
+    rng = np.random.default_rng(seed)
+    return [(Corner(turn=float(rng.uniform(*turns)), leg=float(rng.uniform(*legs))), int(rng.integers(2**31)))
+            for _ in range(count)]
+
+
+def solve(corner: Corner, seed: int, delta_max: float, settings: PsoSettings) -> tuple[CornerSample | None, float]:
+    """PSO's solution of one corner (None when it finds no feasible one) and the seconds it took."""
+    started = time.perf_counter()
+    best, _ = pso_corner(corner, delta_max, settings=PsoSettings(**{**settings.__dict__, "seed": seed}))
+    seconds = time.perf_counter() - started
+    if best is None:
+        return None, seconds
+    return CornerSample(corner, corner.method1_points(), best.curve.points, best.curve.weights), seconds
+
+
 def solved_corners(count: int, delta_max: float, seed: int, settings: PsoSettings,
                    turns: tuple[float, float] = (math.radians(30), math.radians(150)),
                    legs: tuple[float, float] = (0.5, 3.0)) -> list[CornerSample]:
-    """``count`` random corners (turn and leg drawn from the ranges) with their PSO solutions; corners
-    PSO cannot solve under Eq. 7 are drawn again, so every sample is feasible."""
-    rng = np.random.default_rng(seed)
-    out: list[CornerSample] = []
-    while len(out) < count:
-        corner = Corner(turn=float(rng.uniform(*turns)), leg=float(rng.uniform(*legs)))
-        run = PsoSettings(**{**settings.__dict__, "seed": int(rng.integers(2**31))})
-        best, _ = pso_corner(corner, delta_max, settings=run)
-        if best is not None:
-            out.append(CornerSample(corner, corner.method1_points(), best.curve.points, best.curve.weights))
-    return out
+    """The PSO solutions of ``count`` drawn corners (those PSO cannot solve under Eq. 7 are left out)."""
+    found = (solve(corner, s, delta_max, settings)[0] for corner, s in draw_corners(count, seed, turns, legs))
+    return [sample for sample in found if sample is not None]
 
 
 def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, lr: float, seed: int

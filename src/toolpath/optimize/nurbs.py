@@ -21,21 +21,28 @@ def clamped_uniform_knots(count: int, degree: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Nurbs:
-    """Control points (n, 2), weights (n,), degree; clamped uniform knots on [0, 1]."""
+    """Control points (n, 2), weights (n,), degree; clamped uniform knots on [0, 1] unless ``knots``
+    is given (e.g. a piecewise Bezier curve, whose inner knots repeat ``degree`` times)."""
 
     points: np.ndarray
     weights: np.ndarray
     degree: int = 3
+    knots: tuple[float, ...] | None = None
+
+    def knot_vector(self) -> np.ndarray:
+        if self.knots is not None:
+            return np.asarray(self.knots, dtype=float)
+        return clamped_uniform_knots(len(self.weights), self.degree)
 
     def _homogeneous(self) -> BSpline:
         w = np.asarray(self.weights, dtype=float)
         coef = np.c_[np.asarray(self.points, dtype=float) * w[:, None], w]
-        return BSpline(clamped_uniform_knots(len(w), self.degree), coef, self.degree)
+        return BSpline(self.knot_vector(), coef, self.degree)
 
     def derivatives(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """C(u), C'(u), C''(u) (Eq. 1 and 5), each (len(u), 2)."""
         spline = self._homogeneous()
-        h, h1, h2 = spline(u), spline.derivative(1)(u), spline.derivative(2)(u)
+        h, h1, h2 = spline(u), spline(u, 1), spline(u, 2)  # works across repeated inner knots too
         w, w1, w2 = h[:, 2:], h1[:, 2:], h2[:, 2:]
         c = h[:, :2] / w
         c1 = (h1[:, :2] - c * w1) / w
@@ -57,5 +64,5 @@ class Nurbs:
         """N_{i,p}(u) of every control point (Eq. 2), at one parameter."""
         count = len(self.weights)
         eye = np.eye(count)
-        knots = clamped_uniform_knots(count, self.degree)
+        knots = self.knot_vector()
         return np.array([BSpline(knots, eye[k], self.degree)(u) for k in range(count)])

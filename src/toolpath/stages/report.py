@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 
 from toolpath import config, tracking
 from toolpath.reports import classify_figures as cf
+from toolpath.reports import feedrate as fr
 from toolpath.reports import sequencing as seqr
 from toolpath.reports import smoothing as sm
 from toolpath.reports import summary as report_summary
@@ -251,6 +252,28 @@ class Report:
                                      "sheet, entry points red, exit points yellow, transitions blue, collisions red"))
         return "\n".join(parts)
 
+    # ---- corner smoothing and feedrate (seed 002) --------------------------------------------
+    def corners_and_feedrate(self) -> str:
+        corner, timing = self.metrics("corner.json"), Path(self.paths.timing) / "corner.json"
+        profiles, curves = Path(self.paths.corner) / "profiles.npz", Path(self.paths.plots) / "corner" / "training.csv"
+        require([corner, timing, profiles, curves], "corner")
+        windows = {s: self.metrics("feedrate", f"{s}.json") for s in self.shapes}
+        require(list(windows.values()), "feedrate")
+        metrics, per_shape = read_json(corner), {s: read_json(p) for s, p in windows.items()}
+        cases, methods = list(metrics["cases"]), list(self.cfg.corner.methods)
+        with np.load(profiles) as data:
+            arrays = {k: data[k] for k in data.files}
+        parts = [self.table(fr.cases_table(metrics), "table10_corner_cases"),
+                 self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
+                 self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimise.modes],
+                            "table12_time_saved"),
+                 self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
+                             "Seed 002, Figs. 11-14: each case path smoothed by every method (top) and its planned "
+                             "feed (bottom)"),
+                 self.figure(fr.training_figure(read_columns(curves)), "fig17_surrogate_training",
+                             "Seed 002, Figs. 8-9: training loss of FDLS and SDLS")]
+        return "\n".join(parts)
+
     def sections(self) -> list[Section]:
         plan: list[tuple[str, Callable[[], str]]] = [
             ("Table 1: roughness categories", self.categories),
@@ -264,6 +287,7 @@ class Report:
             ("Table 6: optimisers and curvature reduction", self.optimisers),
             ("Figures 8-11 and the reduction / deviation trade-off", self.smoothing_figures),
             ("Seed 004: sequencing many parts on one sheet", self.sequencing),
+            ("Seed 002: corner smoothing, feedrate and machining time", self.corners_and_feedrate),
         ]
         result = []
         for title, build in plan:

@@ -1,0 +1,165 @@
+"""Smooth every local corner of a G01 path with one corner method, and sample the result for the
+feedrate planner (seed 002, Sec. "Local corner smoothing" applied to a whole path; issue 9).
+
+A vertex is a local corner when the path turns there by at least ``min_turn`` (smaller turns, such
+as the chords of an arc, are left to the controller's blend).  Each corner gets the room
+``min(l_in, l_out) / 2`` along both legs, so neighbouring transitions never overlap, capped by
+``max_leg`` (the NURBS's farthest control point lies at 2 L <= 2 max_leg from the corner; FDLS /
+SDLS learn corners up to that leg).  The methods:
+
+* ``nurbs_pso`` — method 2 by PSO (Eq. 7-8); ``nurbs_net`` — FDLS / SDLS, checked, repaired or
+  handed back to PSO; ``bspline`` and ``bezier`` — the comparison transitions of
+  :mod:`toolpath.optimize.transitions`;
+* a corner no method can smooth under Eq. 7 (or a near reversal) stays a sharp vertex, planned with
+  the controller blend radius of :func:`toolpath.feedrate.polyline_radius`, and is reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from toolpath.feedrate.limits import polyline_radius
+from toolpath.optimize.corner import Corner, CornerCurve, PsoSettings, pso_corner
+from toolpath.optimize.transitions import bezier_transition, bspline_transition
+
+CORNER_METHODS = ("nurbs_pso", "nurbs_net", "bspline", "bezier")
+MAX_TURN = math.radians(175.0)  # beyond this a corner is a reversal: the tool stops there
+
+
+@dataclass(frozen=True)
+class CornerSettings:
+    """How corners are found and held: Eq. 7's delta_max, the smallest turn that counts as a
+    corner, the longest leg L, the controller blend tolerance for sharp vertices, samples per curve
+    and the spacing of samples along straight runs (mm)."""
+
+    delta_max: float = 0.1
+    min_turn_deg: float = 15.0
+    max_leg: float = 3.0
+    blend_tolerance: float = 0.005
+    curve_samples: int = 101
+    line_step: float = 0.1
+    pso: PsoSettings = PsoSettings()
+
+
+@dataclass(frozen=True)
+class CornerResult:
+    """One corner of a path: its vertex, turn, leg L, the curvature before smoothing, the method's
+    peak curvature and approximation error, where the answer came from, and time.
+
+    'Before' is the curvature of the circular blend a controller would run within the same
+    delta_max (the largest arc within delta_max of the vertex and within half of each segment,
+    :func:`toolpath.feedrate.polyline_radius`): the sharp G01 corner itself has infinite curvature,
+    and the paper does not say what its 'before' is."""
+
+    vertex: int
+    turn_deg: float
+    leg: float
+    curvature_before: float
+    curvature_after: float
+    error: float
+    source: str
+    seconds: float
+
+    @property
+    def reduction_pct(self) -> float:
+        return 100.0 * (1.0 - self.curvature_after / self.curvature_before)
+
+
+@dataclass(frozen=True)
+class SmoothedPath:
+    """Samples of the smoothed path (M, 2), their radius of curvature (M,), and the corners."""
+
+    points: np.ndarray
+    rho: np.ndarray
+    corners: tuple[CornerResult, ...]
+
+
+Smoother = Callable[[Corner, CornerSettings], tuple[CornerCurve | None, str]]
+
+
+def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
+    """The corner function of ``method``; ``nurbs_net`` needs ``nets`` = (fdls, sdls)."""
+    if method == "nurbs_pso":
+        def pso(corner: Corner, s: CornerSettings) -> tuple[CornerCurve | None, str]:
+            return pso_corner(corner, s.delta_max, settings=s.pso)[0], "pso"
+        return pso
+    if method == "nurbs_net":
+        if nets is None:
+            raise ValueError("nurbs_net needs the trained FDLS and SDLS networks")
+        from toolpath.optimize.corner_net import smooth_corner
+
+        return lambda corner, s: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso)
+    if method == "bspline":
+        return lambda corner, s: (bspline_transition(corner.turn, 2 * corner.leg, s.delta_max), "closed-form")
+    if method == "bezier":
+        return lambda corner, s: (bezier_transition(corner.turn, 2 * corner.leg, s.delta_max), "search")
+    raise ValueError(f"unknown corner method {method!r}; known: {', '.join(CORNER_METHODS)}")
+
+
+def corner_frames(points: np.ndarray, settings: CornerSettings) -> list[tuple[int, Corner, np.ndarray]]:
+    """(vertex, corner, frame-to-world matrix) of every local corner.  The matrix's columns are the
+    bisector e_x = (a + b)/|a + b| and e_y = (a - b)/|a - b| of the unit legs a (in) and b (out), so
+    the frame's incoming leg direction (sin phi, cos phi) maps onto a and the outgoing onto b."""
+    seg = np.diff(points, axis=0)
+    length = np.hypot(seg[:, 0], seg[:, 1])
+    out = []
+    for i in range(1, len(points) - 1):
+        if length[i - 1] <= 0 or length[i] <= 0:
+            continue
+        a, b = seg[i - 1] / length[i - 1], seg[i] / length[i]
+        turn = math.acos(float(np.clip(a @ b, -1.0, 1.0)))
+        if turn < math.radians(settings.min_turn_deg):
+            continue
+        leg = min(min(length[i - 1], length[i]) / 4.0, settings.max_leg)
+        frame = np.column_stack([(a + b) / max(np.linalg.norm(a + b), 1e-300), (a - b) / np.linalg.norm(a - b)])
+        out.append((i, Corner(turn, leg), frame))
+    return out
+
+
+def _line(start: np.ndarray, end: np.ndarray, step: float) -> np.ndarray:
+    """Points strictly between ``start`` and ``end``, at most ``step`` apart."""
+    count = int(np.ceil(np.linalg.norm(end - start) / step))
+    t = np.linspace(0.0, 1.0, count + 1)[1:-1]
+    return start + t[:, None] * (end - start)
+
+
+def smooth_path(points: np.ndarray, smoother: Smoother, settings: CornerSettings) -> SmoothedPath:
+    """Replace every local corner by the smoother's curve and sample the whole path."""
+    points = np.asarray(points, dtype=float)
+    blend = polyline_radius(points, settings.blend_tolerance)
+    within_delta = polyline_radius(points, settings.delta_max)
+    curves: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    results = []
+    for vertex, corner, frame in corner_frames(points, settings):
+        before = 1.0 / within_delta[vertex]
+        started = time.perf_counter()
+        found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings)
+        seconds = time.perf_counter() - started
+        if found is None or not found.feasible:
+            results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before,
+                                        1.0 / blend[vertex], math.nan, "kept", seconds))
+            continue
+        u = np.linspace(0.0, 1.0, settings.curve_samples)
+        curves[vertex] = (points[vertex] + found.curve(u) @ frame.T, found.curve.radius(u))
+        results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, found.max_curvature,
+                                    max(found.delta_1, found.delta_2), source, seconds))
+    xy, rho = [points[:1]], [np.array([np.inf])]
+    last = points[0]
+    for i in range(1, len(points)):
+        entry = curves[i][0][0] if i in curves else points[i]
+        xy.append(_line(last, entry, settings.line_step))
+        rho.append(np.full(len(xy[-1]), np.inf))
+        if i in curves:
+            xy.append(curves[i][0])
+            rho.append(curves[i][1])
+            last = curves[i][0][-1]
+        else:
+            xy.append(points[i:i + 1])
+            rho.append(blend[i:i + 1])
+            last = points[i]
+    return SmoothedPath(np.vstack(xy), np.concatenate(rho), tuple(results))
