@@ -111,3 +111,26 @@ def test_committed_sequence_metrics_back_the_readme_claims():
         assert travel["gtsp_eq46"] == min(t for m, t in travel.items() if row[m]["collisions"] == 0), n
         assert travel["gtsp_eq46"] < travel["nearest_neighbour"], n
         assert travel["gtsp"] == min(travel.values()) and row["gtsp"]["collisions"] > 10, n
+
+
+def test_committed_corner_and_feedrate_metrics_back_the_readme_claims():
+    """README, "Where corner smoothing stands": each claim checked against the committed default-profile metrics."""
+    corner = json.loads((REPO / "reports/metrics/corner.json").read_text())
+    assert set(corner["cases"]) == {"w", "dress", "torch"}
+    for case, record in corner["cases"].items():
+        assert record["g01"]["within_limits"] and record["g01"]["bracketed"], case
+        methods = record["methods"]
+        for name, entry in methods.items():
+            assert entry["within_limits"] and entry["bracketed"], (case, name)
+            assert entry["max_error"] <= 0.1 + 1e-9, (case, name)
+        pso, bspline, bezier = methods["nurbs_pso"], methods["bspline"], methods["bezier"]
+        assert bspline["max_reduction_pct"] < 0 and bezier["max_reduction_pct"] < 0, case
+        assert pso["max_reduction_pct"] > 0, case
+        assert pso["time"] < bspline["time"], case
+        assert record["g01"]["time"] < bezier["time"] < pso["time"], case
+    for shape in OmegaConf.load(REPO / "params.yaml").shapes:
+        planned = json.loads((REPO / f"reports/metrics/feedrate/{shape}.json").read_text())["methods"]
+        for mode, by_encoding in planned.items():
+            for by_method in by_encoding.values():
+                for method, stats in by_method.items():
+                    assert stats["all_within_limits"] and stats["all_bracketed"], (shape, mode, method)

@@ -84,12 +84,22 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         assert sequence["sheets"][n]["manual"]["optimisation_rate_pct"] == 0.0
         program = read_file(work / f"data/sequence/sheet_{n}.nc")
         assert len(program.points) > 100
+    corner = json.loads((work / "reports/metrics/corner.json").read_text())
+    w = corner["cases"]["w"]  # the smoke profile's one case
+    assert w["g01"]["within_limits"] and set(w["methods"]) == {"nurbs_pso", "nurbs_net", "bspline", "bezier"}
+    for method in w["methods"].values():
+        assert method["within_limits"] and (method["max_error"] is None or method["max_error"] <= 0.1 + 1e-9)
+    assert w["methods"]["bspline"]["kept_sharp"] == w["methods"]["bezier"]["kept_sharp"] == 0
+    assert corner["surrogates"]["sources"]["infeasible"] == 0
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        planned = json.loads((work / f"reports/metrics/feedrate/{shape}.json").read_text())
+        assert planned["methods"]["bound"]["plain"]["nacoa"]["all_within_limits"]
     report = (work / "reports/report.md").read_text()
-    assert "Seed 004, Table 1" in report
+    assert "Seed 004, Table 1" in report and "Seed 002, cases 1-3" in report
     assert "Missing section" not in report and "Profile `smoke`" in report
     stems = [line.strip().removeprefix("- ${paths.report}/").split(":")[0]
              for line in (work / "dvc.yaml").read_text().splitlines() if "- ${paths.report}/" in line]
-    assert len(stems) == 43 and all((work / "reports" / stem).is_file() for stem in stems)
+    assert len(stems) == 55 and all((work / "reports" / stem).is_file() for stem in stems)
     assert all(f"({stem})" in report for stem in stems if stem.startswith("figures/") and stem.endswith(".png"))
     assert "Table 3 in brief" in (work / "README.md").read_text()
     shown = run(dvc + ["metrics", "show"], work, env)
@@ -98,6 +108,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/optimise/gear.json" in shown
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
+    assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)
 
 

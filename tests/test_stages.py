@@ -151,3 +151,31 @@ def test_optimise_rejects_an_unknown_method(smoke_dir):
 
     with pytest.raises(SystemExit, match="unknown method"):
         plan([(0, 2, True)], {"methods": ["sandpaper"], "modes": ["bound"], "encodings": ["plain"]})
+
+
+def test_feedrate_stage_names_a_missing_or_malformed_smoothed_file(smoke_dir):
+    from toolpath.stages import feedrate
+
+    windows = smoke_dir / "data/windows/gear.npz"
+    windows.parent.mkdir(parents=True)
+    np.savez(windows, windows=np.zeros((2, 50, 2), np.float32), label=np.ones(2), split=np.full(2, 2),
+             program=np.zeros(2))
+    with pytest.raises(SystemExit, match=r"data/smoothed/gear.npz: smoothed windows not found"):
+        feedrate.main(["--shape", "gear"])
+    bad = smoke_dir / "data/smoothed/gear.npz"
+    bad.parent.mkdir(parents=True)
+    np.savez(bad, points=np.zeros((1, 50, 2)))
+    with pytest.raises(SystemExit, match="malformed smoothed-windows file, missing window"):
+        feedrate.main(["--shape", "gear"])
+
+
+def test_feedrate_summary_totals_and_worst_cases():
+    from toolpath.stages.feedrate import summarise
+
+    rows = [{"mode": "bound", "encoding": "plain", "method": "nacoa", "time_original": t0, "time_smoothed": t1,
+             "time_saved_pct": 100 * (1 - t1 / t0), "deviation": d, "within_limits": True, "bracketed": True}
+            for t0, t1, d in ((1.0, 0.5, 0.01), (3.0, 3.0, 0.04))]
+    stats = summarise(rows)["bound"]["plain"]["nacoa"]
+    assert stats["time_saved_pct"] == pytest.approx(100 * (1 - 3.5 / 4.0))  # of the totals, not the mean
+    assert stats["mean_window_time_saved_pct"] == pytest.approx(25.0)
+    assert stats["max_deviation_mm"] == 0.04 and stats["windows"] == 2 and stats["all_within_limits"]

@@ -7,7 +7,8 @@
 Each is a stack of 64 fully connected layers with a shortcut every 8 (``ResidualMLP``) and
 dropout, trained with MSE and Adam (FDLS: batch 16, lr 0.005; SDLS: batch 64, lr 0.001) on corners
 that PSO solved.  A prediction is checked against Eq. 7: weights that miss the approximation
-error are repaired by the closed-form weight rule, and a corner that still fails goes back to PSO,
+error are repaired (the extra point projected into Eq. 7's box, the weights from the closed-form
+rule), and a corner that still fails goes back to PSO,
 so :func:`smooth_corner` never returns an infeasible corner.
 """
 
@@ -42,12 +43,26 @@ class ResidualMLP(nn.Module):
         for block in self.blocks:  # residual branches start small, so the deep stack trains from the start
             nn.init.zeros_(block[-2].weight)
             nn.init.zeros_(block[-2].bias)
+        # inputs and outputs are standardised inside the network (set by :func:`fit`, saved with it):
+        # corner coordinates span a few mm while the answer must be right to a fraction of delta_max
+        for name, size in (("x_mean", inputs), ("x_scale", inputs), ("y_mean", outputs), ("y_scale", outputs)):
+            self.register_buffer(name, torch.zeros(size) if name.endswith("mean") else torch.ones(size))
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        h = torch.relu(self.head(x))
+    def standardised(self, x: torch.Tensor) -> torch.Tensor:
+        """The output in standard units (what the loss compares)."""
+        h = torch.relu(self.head((x - self.x_mean) / self.x_scale))
         for block in self.blocks:
             h = self.dropout(h + block(h))
         return self.tail(h)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.standardised(x) * self.y_scale + self.y_mean
+
+    def set_scales(self, X: torch.Tensor, Y: torch.Tensor) -> None:
+        for name, data in (("x", X), ("y", Y)):
+            getattr(self, f"{name}_mean").copy_(data.mean(dim=0))
+            getattr(self, f"{name}_scale").copy_(data.std(dim=0).clamp_min(1e-8) if len(data) > 1
+                                                 else torch.ones(data.shape[1]))
 
 
 @dataclass(frozen=True)
@@ -88,10 +103,15 @@ def solved_corners(count: int, delta_max: float, seed: int, settings: PsoSetting
 
 def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, lr: float, seed: int
         ) -> list[float]:
-    """MSE and Adam, shuffled with ``seed``; the loss of each epoch (Figs. 8-9)."""
+    """MSE of the standardised outputs and Adam, shuffled with ``seed``; the loss of each epoch (Figs. 8-9)."""
     torch.manual_seed(seed)
     generator = torch.Generator().manual_seed(seed)
     X_t, Y_t = torch.as_tensor(X, dtype=torch.float32), torch.as_tensor(Y, dtype=torch.float32)
+    if isinstance(net, ResidualMLP):
+        net.set_scales(X_t, Y_t)
+        Z_t = (Y_t - net.y_mean) / net.y_scale
+    else:
+        Z_t = Y_t
     optimiser = torch.optim.Adam(net.parameters(), lr=lr)
     curve = []
     for _ in range(epochs):
@@ -101,7 +121,8 @@ def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, l
         for start in range(0, len(order), batch):
             idx = order[start:start + batch]
             optimiser.zero_grad()
-            loss = nn.functional.mse_loss(net(X_t[idx]), Y_t[idx])
+            out = net.standardised(X_t[idx]) if isinstance(net, ResidualMLP) else net(X_t[idx])
+            loss = nn.functional.mse_loss(out, Z_t[idx])
             loss.backward()
             optimiser.step()
             total += float(loss.detach()) * len(idx)
@@ -130,12 +151,16 @@ def predict(fdls: nn.Module, sdls: nn.Module, corner: Corner) -> tuple[np.ndarra
 
 def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: float,
                   settings: PsoSettings) -> tuple[CornerCurve | None, str]:
-    """The networks' corner if it meets Eq. 7 ('net'), else with repaired weights ('repaired'), else
+    """The networks' corner if it meets Eq. 7 ('net'), else repaired ('repaired': the extra point
+    projected into the box, the weights by the closed-form rule), else
     PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either."""
     points, weights = predict(fdls, sdls, corner)
     found = evaluate(corner, points, weights, delta_max)
     if found.feasible:
         return found, "net"
+    lo, hi = corner.box()  # repair: the extra point back inside Eq. 7's box, then the closed-form weights
+    margin = 1e-3 * (hi - lo)
+    points = corner.method2_points(np.clip(points[2], lo + margin, hi - margin))
     repaired = solve_weights(points, delta_max)
     if repaired is not None:
         found = evaluate(corner, points, repaired, delta_max)

@@ -255,6 +255,7 @@ class Report:
     # ---- corner smoothing and feedrate (seed 002) --------------------------------------------
     def corners_and_feedrate(self) -> str:
         corner, timing = self.metrics("corner.json"), Path(self.paths.timing) / "corner.json"
+        require([self.metrics("corner_corners.csv")], "corner")
         profiles, curves = Path(self.paths.corner) / "profiles.npz", Path(self.paths.plots) / "corner" / "training.csv"
         require([corner, timing, profiles, curves], "corner")
         windows = {s: self.metrics("feedrate", f"{s}.json") for s in self.shapes}
@@ -263,7 +264,9 @@ class Report:
         cases, methods = list(metrics["cases"]), list(self.cfg.corner.methods)
         with np.load(profiles) as data:
             arrays = {k: data[k] for k in data.files}
+        rows = read_csv(self.metrics("corner_corners.csv"))
         parts = [self.table(fr.cases_table(metrics), "table10_corner_cases"),
+                 self.table([fr.corners_table(rows, case, methods) for case in cases], "table13_corners"),
                  self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
                  self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimise.modes],
                             "table12_time_saved"),
