@@ -134,3 +134,11 @@ def test_committed_corner_and_feedrate_metrics_back_the_readme_claims():
             for by_method in by_encoding.values():
                 for method, stats in by_method.items():
                     assert stats["all_within_limits"] and stats["all_bracketed"], (shape, mode, method)
+
+
+def test_every_optimize_module_is_a_dependency_of_the_stage_it_serves():
+    """optimise and corner list their modules of src/toolpath/optimize one by one: a new module must be listed."""
+    deps = {d for stage in yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"].values()
+            for d in stage.get("deps", []) if isinstance(d, str)}
+    modules = {f"src/toolpath/optimize/{p.name}" for p in (REPO / "src/toolpath/optimize").glob("*.py")}
+    assert modules <= deps, sorted(modules - deps)

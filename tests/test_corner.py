@@ -127,3 +127,27 @@ def test_smooth_corner_never_returns_an_infeasible_corner(trained):
         found, source = smooth_corner(fdls, sdls, corner, 0.1, FAST)
         assert source in ("net", "repaired", "pso") and found.feasible
         assert max(found.delta_1, found.delta_2) <= 0.1 + 1e-9
+
+
+class _Fixed(torch.nn.Module):
+    """A stand-in network that always answers ``value``."""
+
+    def __init__(self, value):
+        super().__init__()
+        self.value = torch.tensor([value], dtype=torch.float32)
+
+    def forward(self, x):
+        return self.value.expand(len(x), -1)
+
+
+def test_a_near_miss_is_repaired_by_lowering_the_weight_target():
+    corner = Corner(turn=math.radians(136), leg=0.85)
+    extra = np.array([-0.249, -0.205])  # near PSO's answer; at the full target delta_1 overshoots
+    points = corner.method2_points(extra)
+    full = evaluate(corner, points, solve_weights(points, 0.1), 0.1)
+    assert not full.feasible and full.delta_1 > 0.1
+    sdls = _Fixed(np.log(solve_weights(points, 0.1)).tolist())  # the net's answer is exactly ``full``
+    found, source = smooth_corner(_Fixed(extra.tolist()), sdls, corner, 0.1, FAST)
+    assert source == "repaired" and found.feasible and found.delta_2 < 0.1
+    outside = smooth_corner(_Fixed([5.0, 5.0]), sdls, corner, 0.1, FAST)  # projected into the box
+    assert outside[1] in ("repaired", "pso") and outside[0].feasible

@@ -24,6 +24,8 @@ from torch import nn
 
 from toolpath.optimize.corner import Corner, CornerCurve, PsoSettings, evaluate, pso_corner, solve_weights
 
+REPAIR_TARGETS = tuple(np.linspace(1.0, 0.5, 11))  # fractions of delta_max tried by the weight repair
+
 
 class ResidualMLP(nn.Module):
     """``layers`` Linear+ReLU layers of ``width`` with an identity shortcut around every ``every`` of
@@ -152,7 +154,8 @@ def predict(fdls: nn.Module, sdls: nn.Module, corner: Corner) -> tuple[np.ndarra
 def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: float,
                   settings: PsoSettings) -> tuple[CornerCurve | None, str]:
     """The networks' corner if it meets Eq. 7 ('net'), else repaired ('repaired': the extra point
-    projected into the box, the weights by the closed-form rule), else
+    projected into the box, the weights by the closed-form rule for C(1/2) at delta_max or, if
+    delta_1 still exceeds it, a little closer to the corner), else
     PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either."""
     points, weights = predict(fdls, sdls, corner)
     found = evaluate(corner, points, weights, delta_max)
@@ -161,10 +164,13 @@ def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: f
     lo, hi = corner.box()  # repair: the extra point back inside Eq. 7's box, then the closed-form weights
     margin = 1e-3 * (hi - lo)
     points = corner.method2_points(np.clip(points[2], lo + margin, hi - margin))
-    repaired = solve_weights(points, delta_max)
-    if repaired is not None:
-        found = evaluate(corner, points, repaired, delta_max)
-        if found.feasible:
-            return found, "repaired"
+    # PSO's optimum sits on the delta_1 <= delta_max boundary, so a near miss usually overshoots it:
+    # lower the target of C(1/2) step by step (REPAIR_TARGETS of delta_max) until Eq. 7 holds
+    for fraction in REPAIR_TARGETS:
+        repaired = solve_weights(points, fraction * delta_max)
+        if repaired is not None:
+            found = evaluate(corner, points, repaired, delta_max)
+            if found.feasible:
+                return found, "repaired"
     best, _ = pso_corner(corner, delta_max, settings=settings)
     return (best, "pso") if best is not None else (None, "infeasible")
