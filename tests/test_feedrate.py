@@ -184,3 +184,21 @@ def _discrete_radius(points):
     ab, bc, ca = (np.linalg.norm(x - y, axis=1) for x, y in ((a, b), (b, c), (c, a)))
     cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
     return np.concatenate([[np.inf], ab * bc * ca / (2 * cross), [np.inf]])
+
+
+def test_chord_limit_on_a_radius_below_the_chord_tolerance_keeps_the_chord_within_the_diameter():
+    """Eq. 16 alone would give 0 below rho = Delta / 2; the chord error there is at most rho < Delta."""
+    for rho in (0.0002, 0.0005, 0.001):
+        v = float(chord_error_limit(rho, MACHINE))
+        assert v == pytest.approx(2 * rho / MACHINE.period) and v > 0
+        assert chord_error(v, rho, MACHINE.period) <= MACHINE.chord_error
+    above = float(chord_error_limit(0.001 * (1 + 1e-9), MACHINE))
+    assert above == pytest.approx(float(chord_error_limit(0.001, MACHINE)), rel=1e-6)  # continuous at Delta
+
+
+def test_a_cusp_along_a_smooth_curve_is_refused_with_a_message():
+    points = np.c_[np.linspace(0, 1, 11), np.zeros(11)]
+    rho = np.full(11, np.inf)
+    rho[4:7] = 0.0
+    with pytest.raises(ValueError, match="cusp"):
+        plan(points, rho, MACHINE, straight=False)

@@ -40,11 +40,17 @@ class Machine:
 
 
 def chord_error_limit(rho: np.ndarray, machine: Machine) -> np.ndarray:
-    """v_Delta = 2 sqrt(2 rho Delta - Delta^2) / T (Eq. 16); inf where rho is inf."""
+    """v_Delta = 2 sqrt(2 rho Delta - Delta^2) / T (Eq. 16); inf where rho is inf.
+
+    Where rho <= Delta the chord error (at most rho, the sagitta of a half circle) cannot exceed the
+    limit, and Eq. 15 holds only while the chord vT is no longer than the diameter: v = 2 rho / T
+    there (equal to Eq. 16 at rho = Delta, so the limit is continuous; Eq. 16 alone would fall to 0
+    below rho = Delta / 2 and stop the tool on any tiny radius)."""
     rho = np.asarray(rho, dtype=float)
     d = machine.chord_error
     with np.errstate(invalid="ignore"):
         v = 2.0 * np.sqrt(np.maximum(2.0 * rho * d - d * d, 0.0)) / machine.period
+    v = np.where(rho <= d, 2.0 * rho / machine.period, v)
     return np.where(np.isinf(rho), np.inf, v)
 
 

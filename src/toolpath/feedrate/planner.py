@@ -92,7 +92,7 @@ def intervals_from_limits(s: np.ndarray, limit: np.ndarray, feed: float, band: f
             low, high, m = limit[k], limit[k], k
             while m + 1 < n and limit[m + 1] < feed:
                 new_low, new_high = min(low, limit[m + 1]), max(high, limit[m + 1])
-                if new_high > new_low * (1.0 + band):
+                if np.isfinite(band) and new_high > new_low * (1.0 + band):
                     break
                 low, high, m = new_low, new_high, m + 1
             out.append((s[k], s[m], float(low), True))
@@ -188,6 +188,9 @@ def _profile(intervals: tuple[Interval, ...], machine: Machine, dt: float) -> Pl
         before = ramp_distance(speeds[k - 1], v, A, J) if speeds[k - 1] < v else 0.0
         after = ramp_distance(v, speeds[k + 1], A, J) if speeds[k + 1] < v else 0.0
         cruise = max(iv.length - before - after, 0.0)
+        if cruise > 0 and v <= 0:
+            raise ValueError(f"feed limit 0 over {iv.length:.6g} mm from s = {iv.start:.6g} mm: the path has a "
+                             "cusp (radius of curvature 0) there and cannot be run")
         if before:
             t, ds, vv, a, j = ramp_samples(speeds[k - 1], v, A, J, dt)
             pieces.append((t0 + t, s0 + ds, vv, a, j))

@@ -152,14 +152,17 @@ def predict(fdls: nn.Module, sdls: nn.Module, corner: Corner) -> tuple[np.ndarra
 
 
 def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: float,
-                  settings: PsoSettings) -> tuple[CornerCurve | None, str]:
+                  settings: PsoSettings, curvature_limit: float = math.inf) -> tuple[CornerCurve | None, str]:
     """The networks' corner if it meets Eq. 7 ('net'), else repaired ('repaired': the extra point
     projected into the box, the weights by the closed-form rule for C(1/2) at delta_max or, if
     delta_1 still exceeds it, a little closer to the corner), else
-    PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either."""
+    PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either.
+
+    ``curvature_limit`` is Eq. 7's cur_max for the networks' answers: a net or repaired curve at
+    least that sharp (a repair can pinch the curve) goes back to PSO, which minimises the curvature."""
     points, weights = predict(fdls, sdls, corner)
     found = evaluate(corner, points, weights, delta_max)
-    if found.feasible:
+    if found.feasible and found.max_curvature < curvature_limit:
         return found, "net"
     lo, hi = corner.box()  # repair: the extra point back inside Eq. 7's box, then the closed-form weights
     margin = 1e-3 * (hi - lo)
@@ -170,7 +173,7 @@ def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: f
         repaired = solve_weights(points, fraction * delta_max)
         if repaired is not None:
             found = evaluate(corner, points, repaired, delta_max)
-            if found.feasible:
+            if found.feasible and found.max_curvature < curvature_limit:
                 return found, "repaired"
     best, _ = pso_corner(corner, delta_max, settings=settings)
     return (best, "pso") if best is not None else (None, "infeasible")

@@ -8,8 +8,8 @@ as the chords of an arc, are left to the controller's blend).  Each corner gets 
 SDLS learn corners up to that leg).  The methods:
 
 * ``nurbs_pso`` — method 2 by PSO (Eq. 7-8); ``nurbs_net`` — FDLS / SDLS, checked, repaired or
-  handed back to PSO; ``bspline`` and ``bezier`` — the comparison transitions of
-  :mod:`toolpath.optimize.transitions`;
+  handed back to PSO (an answer sharper than the circular blend within delta_max goes back too);
+  ``bspline`` and ``bezier`` — the comparison transitions of :mod:`toolpath.optimize.transitions`;
 * a corner no method can smooth under Eq. 7 (or a near reversal) stays a sharp vertex, planned with
   the controller blend radius of :func:`toolpath.feedrate.polyline_radius`, and is reported.
 """
@@ -79,13 +79,14 @@ class SmoothedPath:
     corners: tuple[CornerResult, ...]
 
 
-Smoother = Callable[[Corner, CornerSettings], tuple[CornerCurve | None, str]]
+# (corner, settings, curvature of the circular blend within delta_max) -> (curve or None, source)
+Smoother = Callable[[Corner, CornerSettings, float], tuple[CornerCurve | None, str]]
 
 
 def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     """The corner function of ``method``; ``nurbs_net`` needs ``nets`` = (fdls, sdls)."""
     if method == "nurbs_pso":
-        def pso(corner: Corner, s: CornerSettings) -> tuple[CornerCurve | None, str]:
+        def pso(corner: Corner, s: CornerSettings, _: float) -> tuple[CornerCurve | None, str]:
             return pso_corner(corner, s.delta_max, settings=s.pso)[0], "pso"
         return pso
     if method == "nurbs_net":
@@ -93,11 +94,12 @@ def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
             raise ValueError("nurbs_net needs the trained FDLS and SDLS networks")
         from toolpath.optimize.corner_net import smooth_corner
 
-        return lambda corner, s: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso)
+        # Eq. 7's cur_max for the networks' answers: no sharper than the circular blend
+        return lambda corner, s, arc: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso, arc)
     if method == "bspline":
-        return lambda corner, s: (bspline_transition(corner.turn, 2 * corner.leg, s.delta_max), "closed-form")
+        return lambda corner, s, _: (bspline_transition(corner.turn, 2 * corner.leg, s.delta_max), "closed-form")
     if method == "bezier":
-        return lambda corner, s: (bezier_transition(corner.turn, 2 * corner.leg, s.delta_max), "search")
+        return lambda corner, s, _: (bezier_transition(corner.turn, 2 * corner.leg, s.delta_max), "search")
     raise ValueError(f"unknown corner method {method!r}; known: {', '.join(CORNER_METHODS)}")
 
 
@@ -138,7 +140,7 @@ def smooth_path(points: np.ndarray, smoother: Smoother, settings: CornerSettings
     for vertex, corner, frame in corner_frames(points, settings):
         before = 1.0 / within_delta[vertex]
         started = time.perf_counter()
-        found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings)
+        found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings, before)
         seconds = time.perf_counter() - started
         if found is None or not found.feasible:
             results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before,
