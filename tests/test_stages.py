@@ -160,7 +160,7 @@ def test_feedrate_stage_names_a_missing_or_malformed_smoothed_file(smoke_dir):
     windows.parent.mkdir(parents=True)
     np.savez(windows, windows=np.zeros((2, 50, 2), np.float32), label=np.ones(2), split=np.full(2, 2),
              program=np.zeros(2))
-    with pytest.raises(SystemExit, match=r"data/smoothed/gear.npz: smoothed windows not found"):
+    with pytest.raises(SystemExit, match=r"gear.npz: smoothed-windows file not found; run `dvc repro optimise`"):
         feedrate.main(["--shape", "gear"])
     bad = smoke_dir / "data/smoothed/gear.npz"
     bad.parent.mkdir(parents=True)

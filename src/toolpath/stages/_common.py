@@ -58,24 +58,51 @@ def progress(items: list[T], label: str) -> Iterator[T]:
 WINDOW_KEYS = ("windows", "label", "split", "program")
 
 
-def load_windows(path: Path) -> dict:
-    """The arrays of a windows file, or exit with a message naming the file and the problem."""
+def load_arrays(path: Path, required: Iterable[str], what: str, producer: str) -> dict:
+    """Every array of an ``.npz`` file, or exit with a message naming the file and the problem."""
     import numpy as np
 
     if not path.is_file():
-        raise SystemExit(f"{path}: windows file not found; run `dvc repro label` first")
+        raise SystemExit(f"{path}: {what} file not found; run `dvc repro {producer}` first")
     try:
         with np.load(path) as data:
             arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError) as exc:
-        raise SystemExit(f"{path}: not a readable windows file ({exc})") from None
-    missing = [k for k in WINDOW_KEYS if k not in arrays]
+        raise SystemExit(f"{path}: not a readable {what} file ({exc})") from None
+    missing = [k for k in required if k not in arrays]
     if missing:
-        raise SystemExit(f"{path}: malformed windows file, missing {', '.join(missing)}")
+        raise SystemExit(f"{path}: malformed {what} file, missing {', '.join(missing)}")
+    return arrays
+
+
+def load_windows(path: Path) -> dict:
+    """The arrays of a windows file, or exit with a message naming the file and the problem."""
+    arrays = load_arrays(path, WINDOW_KEYS, "windows", "label")
     w = arrays["windows"]
     if w.ndim != 3 or w.shape[2] != 2 or len(arrays["label"]) != len(w) or len(arrays["split"]) != len(w):
         raise SystemExit(f"{path}: malformed windows file, windows {w.shape} do not match labels / split")
     return arrays
+
+
+def write_rows(rows: list[dict], fields: Iterable[str], path: Path) -> None:
+    """One CSV row per dict, the ``fields`` in order; floats to 6 significant digits."""
+    import csv
+
+    fields = list(fields)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(fields)
+        for r in rows:
+            writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in fields])
+
+
+def grouped_metrics(methods: dict, names: dict[str, str]) -> dict[str, float]:
+    """``{mode: {encoding: {method: stats}}}`` flattened to ``mode.encoding.method.<name>`` for MLflow,
+    ``names`` mapping each metric name to its key in ``stats``."""
+    return {f"{mode}.{encoding}.{method}.{name}": stats[key]
+            for mode, by_encoding in methods.items() for encoding, by_method in by_encoding.items()
+            for method, stats in by_method.items() for name, key in names.items()}
 
 
 def save_checkpoint(checkpoint: dict, path: Path) -> None:

@@ -27,7 +27,7 @@ from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.optimize.corner import PsoSettings
 from toolpath.optimize.corner_path import CornerSettings, corner_smoother, smooth_path
 from toolpath.shapes.cases import case_path
-from toolpath.stages._common import progress, write_json
+from toolpath.stages._common import progress, write_json, write_rows
 
 CORNER_FIELDS = ("case", "method", "vertex", "turn_deg", "leg", "curvature_before", "curvature_after",
                  "reduction_pct", "error", "source")
@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> None:
                    out / "surrogates.pt")
         np.savez_compressed(out / "profiles.npz", **profiles)
         write_json(metrics, metrics_dir / "corner.json")
-        _write_csv(rows, CORNER_FIELDS, metrics_dir / "corner_corners.csv")
+        write_rows(rows, CORNER_FIELDS, metrics_dir / "corner_corners.csv")
         _write_curves(trained["curves"], Path(cfg.paths.plots) / "corner" / "training.csv")
         test = trained["test"]
         write_json({"pso_seconds_per_corner": float(np.mean([t["pso_seconds"] for t in test])) if test else None,
@@ -184,15 +184,6 @@ def main(argv: list[str] | None = None) -> None:
         mlflow.log_artifact(str(metrics_dir / "corner.json"))
         mlflow.log_artifact(str(metrics_dir / "corner_corners.csv"))
         mlflow.log_artifact(str(out / "surrogates.pt"))
-
-
-def _write_csv(rows: list[dict], fields: tuple[str, ...], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(fields)
-        for r in rows:
-            writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in fields])
 
 
 def _write_curves(curves: dict[str, list[float]], path: Path) -> None:

@@ -12,7 +12,6 @@ polyline, whether every plan kept its limits and lay between its bounds: determi
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
@@ -24,24 +23,22 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.geometry.deviation import point_to_polyline
 from toolpath.shapes.synth import SHAPES
-from toolpath.stages._common import load_windows, progress, shape_arg, write_json
+from toolpath.stages._common import (
+    grouped_metrics,
+    load_arrays,
+    load_windows,
+    progress,
+    shape_arg,
+    write_json,
+    write_rows,
+)
 
 ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smoothed", "time_saved_pct",
               "deviation", "within_limits", "bracketed")
 
 
 def load_smoothed(path: Path) -> dict:
-    if not path.is_file():
-        raise SystemExit(f"{path}: smoothed windows not found; run `dvc repro optimise` first")
-    try:
-        with np.load(path) as data:
-            arrays = {k: data[k] for k in data.files}
-    except (OSError, ValueError) as exc:
-        raise SystemExit(f"{path}: not a readable smoothed-windows file ({exc})") from None
-    missing = [k for k in ("points", "window", "method", "mode", "encoding") if k not in arrays]
-    if missing:
-        raise SystemExit(f"{path}: malformed smoothed-windows file, missing {', '.join(missing)}")
-    return arrays
+    return load_arrays(path, ("points", "window", "method", "mode", "encoding"), "smoothed-windows", "optimise")
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -101,23 +98,11 @@ def main(argv: list[str] | None = None) -> None:
         summary = {"methods": summarise(rows), "windows": len(originals), "plans": len(rows) + len(originals)}
         metrics_dir = Path(cfg.paths.metrics) / "feedrate"
         write_json(summary, metrics_dir / f"{args.shape}.json")
-        _write_rows(rows, metrics_dir / f"{args.shape}.csv")
-        for mode, by_encoding in summary["methods"].items():
-            for encoding, by_method in by_encoding.items():
-                for method, stats in by_method.items():
-                    mlflow.log_metrics({f"{mode}.{encoding}.{method}.time_saved_pct": stats["time_saved_pct"],
-                                        f"{mode}.{encoding}.{method}.max_deviation_mm": stats["max_deviation_mm"]})
+        write_rows(rows, ROW_FIELDS, metrics_dir / f"{args.shape}.csv")
+        mlflow.log_metrics(grouped_metrics(summary["methods"], {"time_saved_pct": "time_saved_pct",
+                                                                "max_deviation_mm": "max_deviation_mm"}))
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.json"))
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.csv"))
-
-
-def _write_rows(rows: list[dict], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(ROW_FIELDS)
-        for r in rows:
-            writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in ROW_FIELDS])
 
 
 if __name__ == "__main__":

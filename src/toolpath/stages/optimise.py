@@ -25,7 +25,7 @@ from toolpath.optimize.baselines import MEALPY_CLASSES
 from toolpath.optimize.evaluate import ROW_FIELDS, convergence, summarise, timing, window_row
 from toolpath.optimize.methods import BASELINE_ONLY, METHODS, dispatch, smooth
 from toolpath.shapes.synth import SHAPES
-from toolpath.stages._common import load_windows, progress, shape_arg, write_json
+from toolpath.stages._common import grouped_metrics, load_windows, progress, shape_arg, write_json, write_rows
 
 TEST = 2
 
@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
         summary["sample"] = {"windows": len(chosen), "runs": len(tasks),
                              "per_category": {str(c): sum(1 for _, k, _ in chosen if k == c) for c in categories}}
         metrics_dir = Path(cfg.paths.metrics) / "optimise"
-        _write_rows(rows, metrics_dir / f"{args.shape}.csv")
+        write_rows(rows, ROW_FIELDS, metrics_dir / f"{args.shape}.csv")
         write_json(summary, metrics_dir / f"{args.shape}.json")
         write_json(timing(rows), Path(cfg.paths.timing) / "optimise" / f"{args.shape}.json")
         _write_convergence(tasks, outputs, Path(cfg.paths.plots) / "optimise" / f"{args.shape}.csv")
@@ -106,25 +106,13 @@ def main(argv: list[str] | None = None) -> None:
                             window=np.array([t["window"] for t in tasks]),
                             method=np.array([t["method"] for t in tasks]), mode=np.array([t["mode"] for t in tasks]),
                             encoding=np.array([t["encoding"] for t in tasks]))
-        for mode, by_encoding in summary["methods"].items():
-            for encoding, by_method in by_encoding.items():
-                for method, stats in by_method.items():
-                    mlflow.log_metrics({f"{mode}.{encoding}.{method}.mean_reduction_pct": stats["mean_reduction_pct"],
-                                        f"{mode}.{encoding}.{method}.max_deviation_mm": stats["max_deviation_mm"]})
+        mlflow.log_metrics(grouped_metrics(summary["methods"], {"mean_reduction_pct": "mean_reduction_pct",
+                                                                "max_deviation_mm": "max_deviation_mm"}))
         for step, row in enumerate(rows):
             mlflow.log_metric(f"reduction_pct.{row['mode']}.{row['encoding']}.{row['method']}", row["reduction_pct"],
                               step=step)
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.csv"))
         mlflow.log_artifact(str(metrics_dir / f"{args.shape}.json"))
-
-
-def _write_rows(rows: list[dict], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(ROW_FIELDS)
-        for r in rows:
-            writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in ROW_FIELDS])
 
 
 def _write_convergence(tasks: list[dict], outputs: list, path: Path) -> None:
