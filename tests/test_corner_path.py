@@ -111,3 +111,11 @@ def test_smoothed_case_plan_keeps_every_limit():
     _, record = assess(smoothed.points, smoothed.rho, MACHINE, straight=False)
     assert record["within_limits"] and record["bracketed"] and record["upper_bound"] is None
     assert record["peaks"]["normal_acceleration"] > 0.5 * MACHINE.normal_acceleration  # a limit that binds
+
+
+def test_arc_blend_curvature_of_a_lone_corner_is_the_paths_before():
+    from toolpath.optimize.corner_path import arc_blend_curvature
+
+    (_, corner, _), = corner_frames(SQUARE, CornerSettings())
+    smoothed = smooth_path(SQUARE, corner_smoother("bspline"), FAST)
+    assert arc_blend_curvature(corner, 0.1) == pytest.approx(smoothed.corners[0].curvature_before, rel=1e-12)

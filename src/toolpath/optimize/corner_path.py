@@ -103,6 +103,13 @@ def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     raise ValueError(f"unknown corner method {method!r}; known: {', '.join(CORNER_METHODS)}")
 
 
+def arc_blend_curvature(corner: Corner, delta_max: float) -> float:
+    """Curvature of the circular blend within ``delta_max`` of a corner whose two segments are 4 L long
+    (the 'before' of :class:`CornerResult` and the surrogates' cur_max, for a corner seen alone)."""
+    legs = np.array([corner.leg_point(4 * corner.leg, -1), [0.0, 0.0], corner.leg_point(4 * corner.leg, 1)])
+    return float(1.0 / polyline_radius(legs, delta_max)[1])
+
+
 def corner_frames(points: np.ndarray, settings: CornerSettings) -> list[tuple[int, Corner, np.ndarray]]:
     """(vertex, corner, frame-to-world matrix) of every local corner.  The matrix's columns are the
     bisector e_x = (a + b)/|a + b| and e_y = (a - b)/|a - b| of the unit legs a (in) and b (out), so

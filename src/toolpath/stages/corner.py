@@ -24,8 +24,8 @@ from omegaconf import OmegaConf
 from toolpath import config, tracking
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
-from toolpath.optimize.corner import PsoSettings
-from toolpath.optimize.corner_path import CornerSettings, corner_smoother, smooth_path
+from toolpath.optimize.corner import PsoSettings, evaluate
+from toolpath.optimize.corner_path import CornerSettings, arc_blend_curvature, corner_smoother, smooth_path
 from toolpath.shapes.cases import case_path
 from toolpath.stages._common import progress, write_json, write_rows
 
@@ -74,12 +74,12 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int) -> dict:
     test = []
     for (corner, _), (sample, pso_seconds) in zip(drawn[data["train"]:], solved[data["train"]:], strict=True):
         started = time.perf_counter()
-        found, source = smooth_corner(nets["fdls"], nets["sdls"], corner, settings.delta_max, settings.pso)
+        # as on the case paths: an answer sharper than the circular blend goes back to PSO
+        found, source = smooth_corner(nets["fdls"], nets["sdls"], corner, settings.delta_max, settings.pso,
+                                      arc_blend_curvature(corner, settings.delta_max))
         net_seconds = time.perf_counter() - started
         pso_curvature = None
         if sample is not None:
-            from toolpath.optimize.corner import evaluate
-
             pso_curvature = evaluate(corner, sample.points, sample.weights, settings.delta_max).max_curvature
         test.append({"source": source, "feasible": found is not None and found.feasible,
                      "net_curvature": found.max_curvature if found is not None else None,
