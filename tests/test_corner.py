@@ -4,9 +4,25 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from toolpath.optimize.corner import Corner, PsoSettings, distance_to_legs, evaluate, method1, pso_corner, solve_weights
+from toolpath.geometry import hausdorff
+from toolpath.optimize.corner import (
+    SAMPLES,
+    Corner,
+    PsoSettings,
+    distance_to_legs,
+    evaluate,
+    legs,
+    method1,
+    method1_at,
+    outside_distance,
+    pso_corner,
+    solve_weights,
+)
 from toolpath.optimize.nurbs import Nurbs
+from toolpath.optimize.transitions import bezier_transition, bspline_transition
 
 
 def test_rational_quadratic_quarter_circle_has_radius_one():
@@ -140,14 +156,49 @@ class _Fixed(torch.nn.Module):
         return self.value.expand(len(x), -1)
 
 
-def test_a_near_miss_is_repaired_by_lowering_the_weight_target():
+def test_an_answer_outside_the_corner_is_repaired_into_it():
     corner = Corner(turn=math.radians(136), leg=0.85)
-    extra = np.array([-0.249, -0.205])  # near PSO's answer; at the full target delta_1 overshoots
+    extra = np.array([-0.249, -0.205])  # where an unsigned error let PSO go: 0.154 outside the leg line
     points = corner.method2_points(extra)
     full = evaluate(corner, points, solve_weights(points, 0.1), 0.1)
-    assert not full.feasible and full.delta_1 > 0.1
+    assert not full.feasible and not full.inside and full.delta_1 > 0.1
     sdls = _Fixed(np.log(solve_weights(points, 0.1)).tolist())  # the net's answer is exactly ``full``
     found, source = smooth_corner(_Fixed(extra.tolist()), sdls, corner, 0.1, FAST)
-    assert source == "repaired" and found.feasible and found.delta_2 < 0.1
+    assert source == "repaired" and found.feasible and found.inside and found.error <= 0.1 + 1e-9
     outside = smooth_corner(_Fixed([5.0, 5.0]), sdls, corner, 0.1, FAST)  # projected into the box
     assert outside[1] in ("repaired", "pso") and outside[0].feasible
+
+
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(turn_deg=st.floats(10.0, 170.0), leg=st.floats(0.1, 3.0), seed=st.integers(0, 1000))
+def test_every_corner_curve_lies_inside_its_corner_within_delta_max(turn_deg, leg, seed):
+    """PSO, method 1 at delta_max and both comparison transitions: each answer is inside the wedge of
+    the two legs and within delta_max of them both ways (exact two-sided distance)."""
+    corner = Corner(turn=math.radians(turn_deg), leg=leg)
+    answers = [pso_corner(corner, 0.1, settings=PsoSettings(particles=8, iterations=5, seed=seed))[0],
+               method1_at(corner, 0.1), bspline_transition(corner.turn, 2 * leg, 0.1),
+               bezier_transition(corner.turn, 2 * leg, 0.1)]
+    for found in answers:
+        if found is None or not found.feasible:
+            continue
+        samples = found.curve(np.linspace(0.0, 1.0, SAMPLES))
+        own = Corner(corner.turn, float(np.linalg.norm(samples[0])) / 2.0)  # its legs end where it starts
+        assert outside_distance(samples, own).max() <= 1e-9
+        assert float(hausdorff(samples, legs(own))) <= 0.1 + 1e-9
+        assert found.error >= float(hausdorff(samples, legs(own))) - 1e-12  # the check is an upper bound
+
+
+def test_method1_at_delta_max_puts_the_middle_at_delta_max():
+    corner = Corner(turn=math.radians(90), leg=1.0)
+    found = method1_at(corner, 0.1)
+    assert found.feasible and found.inside
+    assert found.delta_2 == pytest.approx(0.1)
+    # unit weights on the same legs sit farther from the corner (0.25 mm here): held to 0.1 it is sharper
+    assert method1(corner, math.inf).delta_2 > 0.1 and found.max_curvature > method1(corner, math.inf).max_curvature
+
+
+def test_the_wedge_of_a_right_angle_corner():
+    corner = Corner(turn=math.radians(90), leg=1.0)
+    inside, outside = np.array([[0.0, -0.5]]), np.array([[0.0, 0.5]])
+    assert outside_distance(inside, corner)[0] == pytest.approx(-0.5 * math.sqrt(0.5))
+    assert outside_distance(outside, corner)[0] == pytest.approx(0.5 * math.sqrt(0.5))

@@ -9,8 +9,8 @@ from toolpath.geometry import (
     arc_length,
     drop_repeated,
     fitness,
+    hausdorff,
     local_curvature,
-    max_deviation,
     point_to_polyline,
     smoothness_penalty,
     turning_cosines,
@@ -96,14 +96,14 @@ def test_point_to_polyline_and_symmetric_deviation():
     pts = np.array([[5, 2], [-3, 4], [12, 0]], dtype=float)
     assert point_to_polyline(pts, square_side).tolist() == pytest.approx([2.0, 5.0, 2.0])
     bump = np.array([[0, 0], [5, 0.3], [10, 0]], dtype=float)
-    assert max_deviation(bump, square_side) == pytest.approx(0.3)
+    assert hausdorff(bump, square_side) == pytest.approx(0.3)
     # symmetric: a short path is close to the long one, but not the other way round
     short = np.array([[0, 0], [2, 0]], dtype=float)
-    assert max_deviation(short, square_side) == pytest.approx(8.0)
+    assert hausdorff(short, square_side) == pytest.approx(8.0)
 
 
 def test_deviation_is_batched():
     a = np.zeros((4, 5, 2))
     b = a.copy()
     b[:, 2, 1] = np.arange(4)
-    assert max_deviation(a, b).tolist() == pytest.approx([0, 1, 2, 3])
+    assert hausdorff(a, b).tolist() == pytest.approx([0, 1, 2, 3])

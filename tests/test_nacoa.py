@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from toolpath.geometry import fitness, point_to_polyline
+from toolpath.geometry import fitness, hausdorff
 from toolpath.optimize import SmoothingProblem
 from toolpath.optimize.gradient import central_difference_gradient, fitness_gradient
 from toolpath.optimize.methods import METHODS, dispatch, nacoa_budget, smooth
@@ -28,7 +28,7 @@ def zigzag(n=50, amplitude=0.05):
     return np.column_stack([x, y])
 
 
-CFG = {"tolerance": 0.05, "penalty_weight": 10.0, "reach": 1, "box": 0.25,
+CFG = {"tolerance": 0.05, "penalty_weight": 10.0, "box": 0.25,
        "mean_filter": {"width": 5, "passes": 3}, "bezier": {"degree": 5},
        "nacoa": {"population": 12, "generations": 15, "hba_generations": 2, "m0": 4, "m_min": 2, "m_max": 4,
                  "exchange_every": 5}}
@@ -133,7 +133,7 @@ def test_every_method_lowers_the_fitness_and_stays_in_the_tube(method):
     window = zigzag()
     result = smooth(window, method, CFG, "bound", seed=11)
     assert result.objective < fitness(window)
-    assert point_to_polyline(result.points, window).max() <= 0.05 + 1e-9
+    assert hausdorff(result.points, window) <= 0.05 + 1e-9
     assert np.array_equal(result.points[[0, -1]], window[[0, -1]])
     if method not in ("mean_filter", "bezier"):
         again = smooth(window, method, CFG, "bound", seed=11)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from toolpath.geometry import local_curvature, point_to_polyline
-from toolpath.optimize import SmoothingProblem, bezier_fit, mean_filter, project_to_tube
+from toolpath.geometry import hausdorff, local_curvature
+from toolpath.optimize import SmoothingProblem, bezier_fit, clip_displacement, mean_filter
 
 
 def zigzag(n=50, amplitude=0.05):
@@ -46,11 +46,11 @@ def test_bezier_fit_smooths_a_zigzag_and_keeps_the_point_count():
     assert out.shape == zz.shape and local_curvature(out) < 0.05 * local_curvature(zz)
 
 
-def test_project_to_tube_on_a_square_side():
-    side = np.array([[0, 0], [10, 0]], dtype=float)
-    pts = np.array([[5, 1.0], [5, 0.01], [-3, 4]], dtype=float)
-    out = project_to_tube(pts, side, 0.05)
-    assert np.allclose(out, [[5, 0.05], [5, 0.01], [-0.03, 0.04]])
+def test_clip_displacement_projects_onto_the_disc():
+    moved = np.array([[0.0, 1.0], [0.01, 0.0], [-3.0, 4.0]])
+    out = clip_displacement(moved, 0.05)
+    assert np.allclose(out, [[0.0, 0.05], [0.01, 0.0], [-0.03, 0.04]])  # (-3, 4) / 5 * 0.05
+    assert np.hypot(*out.T).max() <= 0.05
 
 
 @pytest.mark.parametrize("mode", ["none", "penalty", "bound"])
@@ -60,23 +60,26 @@ def test_problem_objective_is_eq10_plus_fidelity(mode):
     assert problem.dimension == 2
     flat = problem.displacement(np.array([[0, 0], [1, 0], [2, 0]], dtype=float))
     pts = problem.points(flat)
-    if mode == "bound":  # (1, 0) lies 0.2 / sqrt(1.04) from the bump: projected back to 0.05
-        assert point_to_polyline(pts, bump).max() == pytest.approx(0.05)
+    if mode == "bound":  # (1, 0) is 0.2 below the bump's tip: the tip moves down by 0.05 only
+        assert pts[1].tolist() == pytest.approx([1.0, 0.15])
+        assert hausdorff(pts, bump) == pytest.approx(0.05)
         return
     assert np.allclose(pts[:, 1], 0.0)
-    expected = 10 * 0.2 / np.sqrt(1.04) if mode == "penalty" else 0.0  # a straight line: Fitness 0
+    expected = 10 * 0.2 if mode == "penalty" else 0.0  # a straight line: Fitness 0; the tip moved 0.2
     assert problem.objective(flat) == pytest.approx(expected)
     assert problem.objective(np.zeros((3, 2)))[0] == pytest.approx(problem.objective(np.zeros(2)))
 
 
-def test_bound_mode_never_returns_a_point_beyond_the_tolerance():
+def test_bound_mode_never_returns_a_window_beyond_the_tolerance_both_ways():
     rng = np.random.default_rng(0)
     problem = SmoothingProblem(zigzag(), mode="bound", tolerance=0.05)
     pts = problem.points(rng.normal(scale=1.0, size=(200, problem.dimension)))
-    assert point_to_polyline(pts, problem.window).max() <= 0.05 + 1e-12
+    assert hausdorff(pts, problem.window).max() <= 0.05 + 1e-12
     assert np.array_equal(pts[:, [0, -1]], np.broadcast_to(problem.window[[0, -1]], (200, 2, 2)))
 
 
 def test_problem_rejects_unknown_mode():
     with pytest.raises(ValueError, match="fidelity mode"):
         SmoothingProblem(zigzag(), mode="loose")
+    with pytest.raises(ValueError, match="positive"):
+        SmoothingProblem(zigzag(), tolerance=0.0)

@@ -1,5 +1,6 @@
 """End to end: a fresh copy of the repository, `dvc repro` on the smoke profile, `dvc metrics show`."""
 
+import csv
 import json
 import os
 import re
@@ -61,8 +62,9 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert set(general["cross_shape"]["mcrl"]) == {"gear", "pentagram", "maple_leaf"}
     assert "not found" in general["real_gcode"]["skipped"]  # the copy has no ../shared beside it
     for shape in ("gear", "pentagram", "maple_leaf"):
-        smoothing = json.loads((work / f"reports/metrics/optimise/{shape}.json").read_text())
-        assert smoothing["methods"]["bound"]["plain"]["nacoa"]["max_deviation_mm"] <= 0.05 + 1e-9
+        with (work / f"reports/metrics/optimise/{shape}.csv").open() as fh:
+            bound = [r for r in csv.DictReader(fh) if r["mode"] == "bound"]
+        assert bound and max(float(r["hausdorff_mm"]) for r in bound) <= 0.05 + 1e-9
     for shape in ("gear", "pentagram", "maple_leaf"):
         quantized = json.loads((work / f"reports/metrics/qat/{shape}.json").read_text())
         for model in ("mlp",):  # the smoke profile's QAT models
@@ -88,7 +90,8 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     w = corner["cases"]["w"]  # the smoke profile's one case
     assert w["g01"]["within_limits"] and set(w["methods"]) == {"nurbs_pso", "nurbs_net", "bspline", "bezier"}
     for method in w["methods"].values():
-        assert method["within_limits"] and (method["max_error"] is None or method["max_error"] <= 0.1 + 1e-9)
+        assert method["within_limits"] and method["all_inside"]
+        assert method["max_error_mm"] is None or method["max_error_mm"] <= 0.1 + 1e-9
     assert w["methods"]["bspline"]["kept_sharp"] == w["methods"]["bezier"]["kept_sharp"] == 0
     assert corner["surrogates"]["sources"]["infeasible"] == 0
     for shape in ("gear", "pentagram", "maple_leaf"):
@@ -99,7 +102,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "Missing section" not in report and "Profile `smoke`" in report
     stems = [line.strip().removeprefix("- ${paths.report}/").split(":")[0]
              for line in (work / "dvc.yaml").read_text().splitlines() if "- ${paths.report}/" in line]
-    assert len(stems) == 55 and all((work / "reports" / stem).is_file() for stem in stems)
+    assert len(stems) == 57 and all((work / "reports" / stem).is_file() for stem in stems)
     assert all(f"({stem})" in report for stem in stems if stem.startswith("figures/") and stem.endswith(".png"))
     assert "Table 3 in brief" in (work / "README.md").read_text()
     shown = run(dvc + ["metrics", "show"], work, env)

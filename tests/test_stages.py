@@ -130,7 +130,7 @@ def test_optimise_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
     assert set(summary["methods"]["none"]["shifted"]) == {"coa", "pso"}  # mealpy ones, both encodings
     for row in rows:
         if row["mode"] == "bound":
-            assert float(row["max_deviation_mm"]) <= 0.05 + 1e-6
+            assert float(row["hausdorff_mm"]) <= 0.05 + 1e-9
     assert summary["dispatch"]["bound"]["1"]["method"] == "none"
     curves = (smoke_dir / "reports/plots/optimise/gear.csv").read_text().splitlines()
     assert curves[0].split(",")[0] == "budget_fraction" and "nacoa" in curves[0]
@@ -173,9 +173,9 @@ def test_feedrate_summary_totals_and_worst_cases():
     from toolpath.stages.feedrate import summarise
 
     rows = [{"mode": "bound", "encoding": "plain", "method": "nacoa", "time_original": t0, "time_smoothed": t1,
-             "time_saved_pct": 100 * (1 - t1 / t0), "deviation": d, "within_limits": True, "bracketed": True}
+             "time_saved_pct": 100 * (1 - t1 / t0), "hausdorff_mm": d, "within_limits": True, "bracketed": True}
             for t0, t1, d in ((1.0, 0.5, 0.01), (3.0, 3.0, 0.04))]
     stats = summarise(rows)["bound"]["plain"]["nacoa"]
     assert stats["time_saved_pct"] == pytest.approx(100 * (1 - 3.5 / 4.0))  # of the totals, not the mean
     assert stats["mean_window_time_saved_pct"] == pytest.approx(25.0)
-    assert stats["max_deviation_mm"] == 0.04 and stats["windows"] == 2 and stats["all_within_limits"]
+    assert stats["max_hausdorff_mm"] == 0.04 and stats["windows"] == 2 and stats["all_within_limits"]

@@ -9,9 +9,10 @@ from toolpath.geometry.curvature import (
     smoothness_penalty,
     turning_cosines,
 )
-from toolpath.geometry.deviation import max_deviation, point_to_polyline
+from toolpath.geometry.deviation import point_to_polyline
+from toolpath.geometry.hausdorff import directed_hausdorff, hausdorff
 
 __all__ = [
-    "arc_length", "drop_repeated", "fitness", "local_curvature", "max_deviation",
+    "arc_length", "directed_hausdorff", "drop_repeated", "fitness", "hausdorff", "local_curvature",
     "point_to_polyline", "segment_vectors", "smoothness_penalty", "turning_cosines",
 ]

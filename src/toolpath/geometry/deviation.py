@@ -1,4 +1,5 @@
-"""How far one path strays from another: point-to-polyline distances, batched."""
+"""How far points stray from a path: point-to-polyline distances, batched (the two-sided distance
+between two paths is :mod:`toolpath.geometry.hausdorff`)."""
 
 from __future__ import annotations
 
@@ -28,13 +29,3 @@ def point_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     t = np.clip(np.where(length2 > 0, t, 0.0), 0.0, 1.0)
     nearest = a + t[..., None] * ab
     return np.linalg.norm(p - nearest, axis=-1).min(axis=-1)
-
-
-def max_deviation(path_a: np.ndarray, path_b: np.ndarray) -> np.ndarray:
-    """Symmetric maximum deviation between two polylines (a discrete Hausdorff distance).
-
-    The larger of: the farthest point of ``a`` from polyline ``b``, and of ``b`` from ``a``.
-    Shape (...,), in the units of the points.
-    """
-    return np.maximum(point_to_polyline(path_a, path_b).max(axis=-1),
-                      point_to_polyline(path_b, path_a).max(axis=-1))

@@ -6,9 +6,10 @@
 
 Each is a stack of 64 fully connected layers with a shortcut every 8 (``ResidualMLP``) and
 dropout, trained with MSE and Adam (FDLS: batch 16, lr 0.005; SDLS: batch 64, lr 0.001) on corners
-that PSO solved.  A prediction is checked against Eq. 7: weights that miss the approximation
-error are repaired (the extra point projected into Eq. 7's box, the weights from the closed-form
-rule), and a corner that still fails goes back to PSO,
+that PSO solved.  A prediction is checked against Eq. 7, the inside-the-corner rule and the
+two-sided error: an answer that misses is repaired (the extra point projected into Eq. 7's box and
+into the corner's wedge, the weights from the closed-form rule), and a corner that still fails goes
+back to PSO,
 so :func:`smooth_corner` never returns an infeasible corner.
 """
 
@@ -151,10 +152,25 @@ def predict(fdls: nn.Module, sdls: nn.Module, corner: Corner) -> tuple[np.ndarra
     return points, np.exp(log_w)
 
 
+def _into_box_and_wedge(corner: Corner, extra: np.ndarray) -> np.ndarray:
+    """The extra point moved into Eq. 7's box and onto the inner side of the incoming leg's line
+    (a control point outside the wedge pulls the curve outside the corner)."""
+    lo, hi = corner.box()
+    margin = 1e-3 * (hi - lo)
+    extra = np.clip(extra, lo + margin, hi - margin)
+    phi = corner.half_opening
+    outward = np.array([-math.cos(phi), math.sin(phi)])  # the incoming leg's outward normal
+    excess = float(extra @ outward) + 1e-3 * corner.leg
+    if excess > 0:
+        extra = np.clip(extra - excess * outward, lo + margin, hi - margin)
+    return extra
+
+
 def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: float,
                   settings: PsoSettings, curvature_limit: float = math.inf) -> tuple[CornerCurve | None, str]:
-    """The networks' corner if it meets Eq. 7 ('net'), else repaired ('repaired': the extra point
-    projected into the box, the weights by the closed-form rule for C(1/2) at delta_max or, if
+    """The networks' corner if it meets Eq. 7 and lies inside the corner within the two-sided error
+    ('net'), else repaired ('repaired': the extra point projected into the box and the wedge, the
+    weights by the closed-form rule for C(1/2) at delta_max or, if
     delta_1 still exceeds it, a little closer to the corner), else
     PSO's ('pso'); (None, 'infeasible') only when PSO finds no feasible corner either.
 
@@ -164,11 +180,9 @@ def smooth_corner(fdls: nn.Module, sdls: nn.Module, corner: Corner, delta_max: f
     found = evaluate(corner, points, weights, delta_max)
     if found.feasible and found.max_curvature < curvature_limit:
         return found, "net"
-    lo, hi = corner.box()  # repair: the extra point back inside Eq. 7's box, then the closed-form weights
-    margin = 1e-3 * (hi - lo)
-    points = corner.method2_points(np.clip(points[2], lo + margin, hi - margin))
-    # PSO's optimum sits on the delta_1 <= delta_max boundary, so a near miss usually overshoots it:
-    # lower the target of C(1/2) step by step (REPAIR_TARGETS of delta_max) until Eq. 7 holds
+    points = corner.method2_points(_into_box_and_wedge(corner, points[2]))
+    # the closed-form weights put C(1/2) at delta_max; where another error then overshoots, lower
+    # that target step by step (REPAIR_TARGETS of delta_max) until the checks hold
     for fraction in REPAIR_TARGETS:
         repaired = solve_weights(points, fraction * delta_max)
         if repaired is not None:

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from toolpath.feedrate.limits import polyline_radius
-from toolpath.optimize.corner import Corner, CornerCurve, PsoSettings, pso_corner
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, PsoSettings, legs, method1_at, pso_corner
 from toolpath.optimize.transitions import bezier_transition, bspline_transition
 
 CORNER_METHODS = ("nurbs_pso", "nurbs_net", "bspline", "bezier")
@@ -48,26 +49,37 @@ class CornerSettings:
 
 @dataclass(frozen=True)
 class CornerResult:
-    """One corner of a path: its vertex, turn, leg L, the curvature before smoothing, the method's
-    peak curvature and approximation error, where the answer came from, and time.
+    """One corner of a path: its vertex, turn, leg L, two 'before' curvatures, the method's peak
+    curvature, its exact two-sided error against the corner it replaces, whether it lies inside the
+    corner, where the answer came from, and time.
 
-    'Before' is the curvature of the circular blend a controller would run within the same
-    delta_max (the largest arc within delta_max of the vertex and within half of each segment,
-    :func:`toolpath.feedrate.polyline_radius`): the sharp G01 corner itself has infinite curvature,
-    and the paper does not say what its 'before' is."""
+    The sharp G01 corner itself has infinite curvature and the paper does not say what its 'before'
+    is, so there are two: ``curvature_before``, the circular blend a controller would run within the
+    same delta_max (the largest arc within delta_max of the vertex and within half of each segment,
+    :func:`toolpath.feedrate.polyline_radius`), the physical reference; and ``curvature_method1``,
+    method 1's five-point NURBS on the same legs held to the same delta_max
+    (:func:`toolpath.optimize.corner.method1_at`), what FDLS takes as "before smoothing"."""
 
     vertex: int
     turn_deg: float
     leg: float
     curvature_before: float
+    curvature_method1: float
     curvature_after: float
     error: float
+    inside: bool
     source: str
     seconds: float
 
     @property
     def reduction_pct(self) -> float:
+        """Peak-curvature reduction against the circular blend."""
         return 100.0 * (1.0 - self.curvature_after / self.curvature_before)
+
+    @property
+    def reduction_vs_method1_pct(self) -> float:
+        """Peak-curvature reduction against method 1 at the same delta_max (NaN where it has none)."""
+        return 100.0 * (1.0 - self.curvature_after / self.curvature_method1)
 
 
 @dataclass(frozen=True)
@@ -101,6 +113,13 @@ def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     if method == "bezier":
         return lambda corner, s, _: (bezier_transition(corner.turn, 2 * corner.leg, s.delta_max), "search")
     raise ValueError(f"unknown corner method {method!r}; known: {', '.join(CORNER_METHODS)}")
+
+
+def corner_error(found: CornerCurve, turn: float) -> float:
+    """The exact two-sided distance between a corner curve (sampled as Eq. 7 is checked) and the two
+    legs it replaces (from where the curve leaves the path to where it rejoins it)."""
+    samples = found.curve(np.linspace(0.0, 1.0, SAMPLES))
+    return float(hausdorff(samples, legs(Corner(turn, float(np.linalg.norm(samples[0])) / 2.0))))
 
 
 def arc_blend_curvature(corner: Corner, delta_max: float) -> float:
@@ -149,14 +168,17 @@ def smooth_path(points: np.ndarray, smoother: Smoother, settings: CornerSettings
         started = time.perf_counter()
         found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings, before)
         seconds = time.perf_counter() - started
+        reference = method1_at(corner, settings.delta_max)
+        method1 = reference.max_curvature if reference is not None and reference.feasible else math.nan
         if found is None or not found.feasible:
-            results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before,
-                                        1.0 / blend[vertex], math.nan, "kept", seconds))
+            results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, method1,
+                                        1.0 / blend[vertex], math.nan, False, "kept", seconds))
             continue
         u = np.linspace(0.0, 1.0, settings.curve_samples)
         curves[vertex] = (points[vertex] + found.curve(u) @ frame.T, found.curve.radius(u))
-        results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, found.max_curvature,
-                                    max(found.delta_1, found.delta_2), source, seconds))
+        results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, method1,
+                                    found.max_curvature, corner_error(found, corner.turn), found.inside, source,
+                                    seconds))
     xy, rho = [points[:1]], [np.array([np.inf])]
     last = points[0]
     for i in range(1, len(points)):

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, distance_to_legs, evaluate
+from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, evaluate, judge
 from toolpath.optimize.nurbs import Nurbs
 
 DUAL_BEZIER_KNOTS = (0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0)
@@ -36,7 +36,7 @@ def bspline_transition(turn: float, room: float, delta_max: float) -> CornerCurv
     """Zhao et al. (2013): the five-point cubic B-spline whose farthest control point lies at
     min(room, the distance that makes the largest deviation delta_max) from the corner."""
     unit = evaluate(Corner(turn, 1.0), Corner(turn, 1.0).method1_points(), np.ones(5), math.inf)
-    per_leg = max(unit.delta_1, unit.delta_2)  # every deviation scales with the leg length
+    per_leg = max(unit.delta_1, unit.delta_2, unit.error)  # every deviation scales with the leg length
     leg = min(room / 2.0, delta_max / per_leg)
     corner = Corner(turn, leg)
     return evaluate(corner, corner.method1_points(), np.ones(5), delta_max)
@@ -58,12 +58,8 @@ def bezier_curve(turn: float, span: float, ratio: float, delta_max: float) -> Co
 
 def evaluate_curve(corner: Corner, curve: Nurbs, delta_max: float) -> CornerCurve:
     """Peak curvature and deviations of any curve in the corner frame (no method-2 box rules)."""
-    u = np.linspace(0.0, 1.0, SAMPLES)
-    c = curve(u)
-    delta_1 = float(distance_to_legs(c, corner).max())
-    delta_2 = float(np.linalg.norm(c, axis=1).min())  # the corner is the origin
-    return CornerCurve(curve, float(np.max(1.0 / curve.radius(u))), delta_1, delta_2,
-                       bool(max(delta_1, delta_2) <= delta_max * (1 + 1e-9)))
+    c = curve(np.linspace(0.0, 1.0, SAMPLES))
+    return judge(corner, curve, c, float(np.linalg.norm(c, axis=1).min()), delta_max)  # the corner is the origin
 
 
 def bezier_transition(turn: float, room: float, delta_max: float) -> CornerCurve:

@@ -43,7 +43,7 @@ def table6_summary(metrics: Mapping[str, Mapping]) -> str:
             if not all(k in stats for k in PAPER_REDUCTION):
                 continue
             cells = [f"{stats[k]['mean_reduction_pct']:.0f} % (paper {PAPER_REDUCTION[k]:.0f} %), "
-                     f"max dev. {stats[k]['max_deviation_mm']:.3f} mm" for k in PAPER_REDUCTION]
+                     f"max two-sided dev. {stats[k]['max_hausdorff_mm']:.3f} mm" for k in PAPER_REDUCTION]
             head = m.get("head_to_head", {}).get(mode, {})
             swarms = {k: v for k, v in head.items() if k not in ("nacoa", "nacoa_permute", "mean_filter", "bezier")}
             if "nacoa" in head and swarms:

@@ -29,8 +29,8 @@ from toolpath.optimize.corner_path import CornerSettings, arc_blend_curvature, c
 from toolpath.shapes.cases import case_path
 from toolpath.stages._common import progress, write_json, write_rows
 
-CORNER_FIELDS = ("case", "method", "vertex", "turn_deg", "leg", "curvature_before", "curvature_after",
-                 "reduction_pct", "error", "source")
+CORNER_FIELDS = ("case", "method", "vertex", "turn_deg", "leg", "curvature_before", "curvature_method1",
+                 "curvature_after", "reduction_pct", "reduction_vs_method1_pct", "error_mm", "inside", "source")
 
 
 def _solve(job: tuple) -> tuple:
@@ -99,6 +99,35 @@ def surrogate_summary(test: list[dict]) -> dict:
     }
 
 
+def reductions(values: list[float], suffix: str) -> dict:
+    """Mean, worst (smallest) and best reduction of the smoothed corners, per cent (None if none)."""
+    return {f"mean_reduction{suffix}_pct": float(np.mean(values)) if values else None,
+            f"worst_reduction{suffix}_pct": min(values, default=None),
+            f"max_reduction{suffix}_pct": max(values, default=None)}
+
+
+def _study(job: tuple) -> np.ndarray:
+    from toolpath.optimize.corner_study import solve_grid
+
+    return solve_grid(*job)
+
+
+def pso_study(ccfg: dict, settings: CornerSettings, seed: int) -> dict:
+    """PSO's convergence over particles x iterations on drawn corners (their own seeded draw)."""
+    from toolpath.optimize.corner_net import draw_corners
+    from toolpath.optimize.corner_study import summarise_grid
+
+    study, data = ccfg["pso_study"], ccfg["dataset"]
+    drawn = draw_corners(study["corners"], config.seed_for(seed, "corner", "pso_study"),
+                         tuple(math.radians(t) for t in data["turns_deg"]), tuple(data["legs"]))
+    jobs = [(corner, settings.delta_max, PsoSettings(**{**settings.pso.__dict__, "seed": s}), study["particles"],
+             study["iterations"]) for corner, s in drawn]
+    with ProcessPoolExecutor(ccfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_study, job) for job in jobs]
+        grids = [f.result() for f in progress(futures, "corner: PSO convergence study")]
+    return summarise_grid(grids, study["particles"], study["iterations"], study["enough"])
+
+
 def run_case(name: str, methods: list[str], nets: tuple, settings: CornerSettings, machine: Machine,
              band: float) -> tuple[dict, list[dict], dict]:
     """The G01 path and each method's smoothed path, planned and checked: (record, corner rows, profiles)."""
@@ -113,15 +142,19 @@ def run_case(name: str, methods: list[str], nets: tuple, settings: CornerSetting
         record["methods"][method] = {
             **planned,
             "corners": len(smoothed.corners), "kept_sharp": len(smoothed.corners) - len(done),
-            "max_reduction_pct": max((c.reduction_pct for c in done), default=None),
-            "mean_reduction_pct": float(np.mean([c.reduction_pct for c in done])) if done else None,
-            "max_error": max((c.error for c in done), default=None),
+            **reductions([c.reduction_pct for c in done], ""),
+            **reductions([c.reduction_vs_method1_pct for c in done if math.isfinite(c.curvature_method1)],
+                         "_vs_method1"),
+            "max_error_mm": max((c.error for c in done), default=None),  # two-sided, exact
+            "all_inside": all(c.inside for c in done),
             "seconds_per_corner": float(np.mean([c.seconds for c in smoothed.corners])) if smoothed.corners else 0.0,
             "time_saved_vs_g01_pct": 100.0 * (1.0 - planned["time"] / g01["time"]),
         }
         rows += [{"case": name, "method": method, "vertex": c.vertex, "turn_deg": c.turn_deg, "leg": c.leg,
-                  "curvature_before": c.curvature_before, "curvature_after": c.curvature_after,
-                  "reduction_pct": c.reduction_pct, "error": c.error, "source": c.source} for c in smoothed.corners]
+                  "curvature_before": c.curvature_before, "curvature_method1": c.curvature_method1,
+                  "curvature_after": c.curvature_after, "reduction_pct": c.reduction_pct,
+                  "reduction_vs_method1_pct": c.reduction_vs_method1_pct, "error_mm": c.error, "inside": c.inside,
+                  "source": c.source} for c in smoothed.corners]
         profiles.update({f"{name}/{method}/path": smoothed.points, f"{name}/{method}/t": result.t,
                          f"{name}/{method}/v": result.v})
     for method, entry in record["methods"].items():  # the paper's comparison: time saved against each other method
@@ -154,10 +187,10 @@ def main(argv: list[str] | None = None) -> None:
             rows += case_rows
             profiles.update(case_profiles)
         seconds = {c: {m: r.pop("seconds_per_corner") for m, r in rec["methods"].items()} for c, rec in cases.items()}
-        metrics = {"cases": cases, "surrogates": {**surrogate_summary(trained["test"]),
-                                                  "train_corners": trained["train_size"],
-                                                  "pso_failures": trained["pso_failures"],
-                                                  "final_loss": {k: v[-1] for k, v in trained["curves"].items()}}}
+        metrics = {"cases": cases, "pso_study": pso_study(ccfg, settings, cfg.seed),
+                   "surrogates": {**surrogate_summary(trained["test"]), "train_corners": trained["train_size"],
+                                  "pso_failures": trained["pso_failures"],
+                                  "final_loss": {k: v[-1] for k, v in trained["curves"].items()}}}
         out.mkdir(parents=True, exist_ok=True)
         torch.save({"fdls": nets[0].state_dict(), "sdls": nets[1].state_dict(), "net": ccfg["net"]},
                    out / "surrogates.pt")
@@ -175,9 +208,9 @@ def main(argv: list[str] | None = None) -> None:
             for method, r in rec["methods"].items():
                 mlflow.log_metrics({f"{case}.{method}.time_s": r["time"],
                                     f"{case}.{method}.time_saved_vs_g01_pct": r["time_saved_vs_g01_pct"]})
-                if r["max_reduction_pct"] is not None:
-                    mlflow.log_metrics({f"{case}.{method}.max_reduction_pct": r["max_reduction_pct"],
-                                        f"{case}.{method}.max_error_mm": r["max_error"]})
+                mlflow.log_metrics({f"{case}.{method}.{k}": v for k, v in r.items()
+                                    if k.endswith(("reduction_pct", "reduction_vs_method1_pct", "error_mm"))
+                                    and v is not None})
         for name, curve in trained["curves"].items():
             for epoch, loss in enumerate(curve):
                 mlflow.log_metric(f"{name}.train_mse", loss, step=epoch)

@@ -268,6 +268,7 @@ class Report:
         parts = [self.table(fr.cases_table(metrics), "table10_corner_cases"),
                  self.table([fr.corners_table(rows, case, methods) for case in cases], "table13_corners"),
                  self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
+                 self.table(fr.pso_study_table(metrics), "table14_pso_size"),
                  self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimise.modes],
                             "table12_time_saved"),
                  self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
