@@ -82,9 +82,9 @@ def test_committed_label_metrics_back_the_readme_claims():
 def test_every_committed_bound_row_is_within_the_tolerance_both_ways():
     """Every smoothed window of the committed default-profile run, bound mode, every method and encoding:
     its exact two-sided distance from the original is at most the tolerance."""
-    tolerance = OmegaConf.load(REPO / "params.yaml").optimise.tolerance
+    tolerance = OmegaConf.load(REPO / "params.yaml").optimize.tolerance
     for shape in OmegaConf.load(REPO / "params.yaml").shapes:
-        with (REPO / "reports" / "metrics" / "optimise" / f"{shape}.csv").open() as fh:
+        with (REPO / "reports" / "metrics" / "optimize" / f"{shape}.csv").open() as fh:
             bound = [r for r in csv.DictReader(fh) if r["mode"] == "bound"]
         assert bound, shape
         for row in bound:
@@ -130,7 +130,7 @@ def test_every_committed_corner_is_inside_within_delta_max_and_every_plan_keeps_
 
 
 def test_every_optimize_module_is_a_dependency_of_the_stage_it_serves():
-    """optimise and corner list their modules of src/toolpath/optimize one by one: a new module must be listed."""
+    """optimize and corner list their modules of src/toolpath/optimize one by one: a new module must be listed."""
     deps = {d for stage in yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"].values()
             for d in stage.get("deps", []) if isinstance(d, str)}
     modules = {f"src/toolpath/optimize/{p.name}" for p in (REPO / "src/toolpath/optimize").glob("*.py")}

@@ -1,4 +1,4 @@
-"""Seed 002's NURBS (Eq. 1-6) and local corner smoothing by PSO (Eq. 7-8) on hand cases."""
+"""The NURBS corner paper's NURBS (Eq. 1-6) and local corner smoothing by PSO (Eq. 7-8) on hand cases."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Seed 002's feedrate limits (Eq. 15-22) on hand cases: a circle, a straight line, a square corner."""
+"""The NURBS corner paper's feedrate limits (Eq. 15-22) on hand cases: a circle, a straight line, a square corner."""
 
 import math
 

@@ -14,13 +14,13 @@ from toolpath.models import (
     LEARNED,
     MODEL_NAMES,
     LocalCurvatureRule,
-    TorchClassifier,
     build,
     prepare,
     random_rotation_reflection,
 )
 from toolpath.models.__main__ import parameter_count
 from toolpath.models.inputs import Prepare, turning_features
+from toolpath.training import TorchClassifier
 
 CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "model" / f"{n}.yaml")) for n in MODEL_NAMES}
 

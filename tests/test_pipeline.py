@@ -62,7 +62,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert set(general["cross_shape"]["mcrl"]) == {"gear", "pentagram", "maple_leaf"}
     assert "not found" in general["real_gcode"]["skipped"]  # the copy has no ../shared beside it
     for shape in ("gear", "pentagram", "maple_leaf"):
-        with (work / f"reports/metrics/optimise/{shape}.csv").open() as fh:
+        with (work / f"reports/metrics/optimize/{shape}.csv").open() as fh:
             bound = [r for r in csv.DictReader(fh) if r["mode"] == "bound"]
         assert bound and max(float(r["hausdorff_mm"]) for r in bound) <= 0.05 + 1e-9
     for shape in ("gear", "pentagram", "maple_leaf"):
@@ -98,7 +98,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         planned = json.loads((work / f"reports/metrics/feedrate/{shape}.json").read_text())
         assert planned["methods"]["bound"]["plain"]["nacoa"]["all_within_limits"]
     report = (work / "reports/report.md").read_text()
-    assert "Seed 004, Table 1" in report and "Seed 002, cases 1-3" in report
+    assert "Xie & Zhu, Table 1" in report and "NURBS corner paper, cases 1-3" in report
     assert "Missing section" not in report and "Profile `smoke`" in report
     stems = [line.strip().removeprefix("- ${paths.report}/").split(":")[0]
              for line in (work / "dvc.yaml").read_text().splitlines() if "- ${paths.report}/" in line]
@@ -108,7 +108,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
-    assert "reports/metrics/optimise/gear.json" in shown
+    assert "reports/metrics/optimize/gear.json" in shown
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown

@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-import toolpath.models  # noqa: F401  (import order: models before training)
-from toolpath.models import MCRL, TorchClassifier
-from toolpath.training import qat
+from toolpath.models import MCRL
+from toolpath.training import TorchClassifier, qat
 from toolpath.training.bench import MCRL_GROUPS, branch_profile, timed
 from toolpath.training.loop import TrainSettings, predict_logits
 

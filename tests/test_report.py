@@ -12,7 +12,7 @@ from conftest import REPO
 from toolpath import config
 from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
 from toolpath.reports.summary import table3_summary
-from toolpath.reports.tables import table1
+from toolpath.reports.tables import categories_table
 from toolpath.stages import report
 
 SHAPES = ("gear", "pentagram", "maple_leaf")
@@ -60,7 +60,7 @@ def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(
     # sections whose inputs are absent say so, naming the file and the stage
     assert "## Table 4: inference time, FP32 and INT8\n\n**Missing section**: needs `reports/metrics/inference.json`" \
         "; run `dvc repro benchmark`." in text
-    assert "`reports/metrics/optimise/gear.json`" in text and "run `dvc repro optimise`" in text
+    assert "`reports/metrics/optimize/gear.json`" in text and "run `dvc repro optimize`" in text
     assert "**Missing sections**: Table 2" in text  # train timing absent
     readme = (partial / "README.md").read_text()
     assert "old" not in readme and readme.endswith(f"{README_END}\n\nafter\n")
@@ -88,16 +88,16 @@ def test_blocks_sections_and_summaries():
     assert missing == "## T\n\n**Missing section**: needs `f.json`; run `dvc repro s`.\n"
     summary = table3_summary({"gear": {"mcrl": _metrics(0.5), "mlp": {"test": {**_metrics(0.9)["test"], "f1": 0.95}}}})
     assert "| gear | 50.0 % / 65.0 % (94.8 % / 94.8 %) | mlp 90.0 % / 95.0 % | - |" in summary
-    table = table1({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": {"1": 0.75, "2": 0.25,
+    table = categories_table({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": {"1": 0.75, "2": 0.25,
                                                                                              "3": 0.0, "4": 0.0},
                              "windows": 4}})
     assert table.rows[0] == ["1 smooth", "<= 1.9", "3 (75.0 %)"] and table.rows[-1] == ["all", "", "4 (100 %)"]
 
 
 def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
-    from toolpath.models.classifier import to_checkpoint
     from toolpath.models.rule import LocalCurvatureRule
     from toolpath.stages._common import save_checkpoint
+    from toolpath.training.classifier import to_checkpoint
 
     rng = np.random.default_rng(0)
     windows = rng.normal(size=(40, 50, 2)).cumsum(axis=1).astype(np.float32)

@@ -1,4 +1,4 @@
-"""Seed 004 sequencing: hand-made sheets with known orders, travel and collisions; Eq. 1-6; baselines; G-code."""
+"""Xie & Zhu sequencing: hand-made sheets with known orders, travel and collisions; Eq. 1-6; baselines; G-code."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ import pytest
 from toolpath.gcode import Motion, read_text
 from toolpath.gcode.writer import ProgramSpec
 from toolpath.sequencing import Part, Sheet, make_sheet, part_tree, plan_path, run_sheet, s_shaped_regions, score
-from toolpath.sequencing.baselines import gtsp_plan, manual_order, nearest_neighbour_order
+from toolpath.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
 from toolpath.sequencing.program import sheet_program, visit_path
 from toolpath.sequencing.regions import _Geometry, inflexion_part, partial_sort, reverse_rows
 from toolpath.sequencing.transitions import best_transition, candidate_pairs
@@ -228,7 +228,7 @@ def test_report_tables_set_ours_beside_the_paper():
         "s_shaped_no_avoidance": {"empty_travel_mm": 8500.0, "collisions": 2, "optimisation_rate_pct": 15.0}}},
         "expansion": {"2": {"empty_travel_mm": 8000.0, "collisions": 0}}}
     timing = {"58": {"s_shaped": {"seconds": 1.5}, "s_shaped_no_avoidance": {"seconds": 1.0}}}
-    table1 = seqr.table1(metrics, timing).markdown()
+    table1 = seqr.sequencing_table(metrics, timing).markdown()
     assert "| 58 | yes | 0 (1) | 10000 (10650) | 8000 (8021) | 1.50 (544.00) | 20.0 (24.0) | -4.0 |" in table1
     assert "| 58 | no | 2 (2) | 10000 (10650) | 8500 (8134) | 1.00 (604.00) | 15.0 (23.6) | -8.6 |" in table1
     baselines = seqr.baselines_table(metrics).markdown()

@@ -111,18 +111,18 @@ def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
         generalise.main([])
 
 
-def test_optimise_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
+def test_optimize_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
     import csv
 
-    from toolpath.stages import optimise
+    from toolpath.stages import optimize
 
     generate.main(["--shape", "gear"])
     label.main(["--shape", "gear"])
-    optimise.main(["--shape", "gear"])
-    summary_path = smoke_dir / "reports/metrics/optimise/gear.json"
+    optimize.main(["--shape", "gear"])
+    summary_path = smoke_dir / "reports/metrics/optimize/gear.json"
     first = summary_path.read_bytes()
     summary = json.loads(first)
-    with (smoke_dir / "reports/metrics/optimise/gear.csv").open() as fh:
+    with (smoke_dir / "reports/metrics/optimize/gear.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == summary["sample"]["runs"] > 0
     methods = {"mean_filter", "bezier", "nacoa", "coa", "pso"}  # the smoke profile's methods
@@ -132,22 +132,22 @@ def test_optimise_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
         if row["mode"] == "bound":
             assert float(row["hausdorff_mm"]) <= 0.05 + 1e-9
     assert summary["dispatch"]["bound"]["1"]["method"] == "none"
-    curves = (smoke_dir / "reports/plots/optimise/gear.csv").read_text().splitlines()
+    curves = (smoke_dir / "reports/plots/optimize/gear.csv").read_text().splitlines()
     assert curves[0].split(",")[0] == "budget_fraction" and "nacoa" in curves[0]
     smoothed = np.load(smoke_dir / "data/smoothed/gear.npz")
     assert smoothed["points"].shape == (len(rows), 50, 2)
-    timing = json.loads((smoke_dir / "reports/timing/optimise/gear.json").read_text())
+    timing = json.loads((smoke_dir / "reports/timing/optimize/gear.json").read_text())
     assert timing["bound"]["plain"]["nacoa"]["complexity"] == "O(n^2) + O(t p d)"
     run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
-               if r.info.run_name == "optimise@gear")
+               if r.info.run_name == "optimize@gear")
     assert run.data.metrics["bound.plain.nacoa.mean_reduction_pct"] == pytest.approx(
         summary["methods"]["bound"]["plain"]["nacoa"]["mean_reduction_pct"])
-    optimise.main(["--shape", "gear"])  # same seed, same bytes
+    optimize.main(["--shape", "gear"])  # same seed, same bytes
     assert summary_path.read_bytes() == first
 
 
-def test_optimise_rejects_an_unknown_method(smoke_dir):
-    from toolpath.stages.optimise import plan
+def test_optimize_rejects_an_unknown_method(smoke_dir):
+    from toolpath.stages.optimize import plan
 
     with pytest.raises(SystemExit, match="unknown method"):
         plan([(0, 2, True)], {"methods": ["sandpaper"], "modes": ["bound"], "encodings": ["plain"]})
@@ -160,7 +160,7 @@ def test_feedrate_stage_names_a_missing_or_malformed_smoothed_file(smoke_dir):
     windows.parent.mkdir(parents=True)
     np.savez(windows, windows=np.zeros((2, 50, 2), np.float32), label=np.ones(2), split=np.full(2, 2),
              program=np.zeros(2))
-    with pytest.raises(SystemExit, match=r"gear.npz: smoothed-windows file not found; run `dvc repro optimise`"):
+    with pytest.raises(SystemExit, match=r"gear.npz: smoothed-windows file not found; run `dvc repro optimize`"):
         feedrate.main(["--shape", "gear"])
     bad = smoke_dir / "data/smoothed/gear.npz"
     bad.parent.mkdir(parents=True)

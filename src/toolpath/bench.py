@@ -1,8 +1,8 @@
-"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimise] [--threads N]
+"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
-fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/optimise.json``:
+fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/optimize.json``:
 NACOA on one rough 50-point window at the paper's population settings (N = 1000, M0 = 10,
 M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Prints the tables.
 """
@@ -82,7 +82,7 @@ def rough_window(seed: int = 0, n: int = 50) -> np.ndarray:
     return pts
 
 
-def bench_optimise(repeats: int, generations: int, seed: int = 0) -> dict:
+def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
     """Median seconds of NACOA on one window at the paper's population settings, per mode and gradient."""
     from toolpath.geometry import fitness
     from toolpath.optimize import SmoothingProblem
@@ -105,7 +105,7 @@ def bench_optimise(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimise"), help="run one benchmark (default: all)")
+    parser.add_argument("--only", choices=("models", "optimize"), help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
@@ -113,17 +113,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.only != "models":
         # one core, as the target says: numpy's elementwise work is single-threaded; pin BLAS anyway
         with _single_thread():
-            optimise = bench_optimise(max(3, args.repeats // 6), args.generations)
-        write_json({"machine": machine(), "nacoa": optimise}, OUT / "optimise.json")
+            nacoa = bench_optimize(max(3, args.repeats // 6), args.generations)
+        write_json({"machine": machine(), "nacoa": nacoa}, OUT / "optimize.json")
         table = Table(title="NACOA, one 50-point window, N = 1000, one core (median)")
         for column in ("mode / gradient", "generations", "evaluations", "seconds", "fitness before -> after"):
             table.add_column(column, justify="right")
-        for key, row in optimise.items():
+        for key, row in nacoa.items():
             table.add_row(key, str(row["generations"]), f"{row['evaluations']:,}", f"{row['seconds_median']:.3f}",
                           f"{row['fitness_before']:.3f} -> {row['fitness_after']:.3f}")
         Console().print(table)
-        print(f"wrote {OUT / 'optimise.json'}")
-        if args.only == "optimise":
+        print(f"wrote {OUT / 'optimize.json'}")
+        if args.only == "optimize":
             return 0
     models = bench_models(args.threads, args.repeats)
     write_json({"machine": machine(), "models": models}, OUT / "models.json")

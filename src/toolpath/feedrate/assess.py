@@ -8,11 +8,11 @@ import numpy as np
 from toolpath.feedrate.bounds import stop_at_every_vertex_time, toppra_time
 from toolpath.feedrate.limits import Machine
 from toolpath.feedrate.peaks import RELATIVE_SLACK, peaks, within_limits
-from toolpath.feedrate.planner import Plan, plan
+from toolpath.feedrate.planner import FeedPlan, plan
 
 
 def assess(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool, band: float = np.inf,
-           bounds: bool = True) -> tuple[Plan, dict]:
+           bounds: bool = True) -> tuple[FeedPlan, dict]:
     """The plan and its record: ``time`` (s), ``peaks``, ``within_limits``, and with ``bounds`` the toppra
     ``lower_bound``, the stop-at-every-vertex ``upper_bound`` (G01 paths only: on a densely sampled
     curve it would stop at every sample) and whether they ``bracket`` the planner's time."""

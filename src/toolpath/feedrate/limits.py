@@ -1,7 +1,7 @@
-"""Feedrate limits from curvature (seed 002, Eq. 15-22).
+"""Feedrate limits from curvature (the NURBS corner paper, Eq. 15-22).
 
 Every limit is a function of the radius of curvature rho (mm; ``inf`` on a straight line) and
-returns mm/s.  Machine values (seed 002's Table 1 was lost from its text) come from
+returns mm/s.  Machine values (the NURBS corner paper's Table 1 was lost from its text) come from
 ``conf/feedrate/``, where each default says where it comes from.
 """
 

@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from toolpath.feedrate.limits import Machine, chord_error
-from toolpath.feedrate.planner import Plan, arc_length
+from toolpath.feedrate.planner import FeedPlan, arc_length
 
 RELATIVE_SLACK = 1e-6  # rounding in the sampled profile
 
 
-def peaks(result: Plan, points: np.ndarray, rho: np.ndarray, machine: Machine) -> dict[str, float]:
+def peaks(result: FeedPlan, points: np.ndarray, rho: np.ndarray, machine: Machine) -> dict[str, float]:
     """Peak of each constrained quantity along the plan."""
     rho = np.asarray(rho, dtype=float)
     v = np.interp(arc_length(points), result.s, result.v)

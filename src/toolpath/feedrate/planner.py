@@ -1,7 +1,7 @@
-"""Feedrate planning along a path under seed 002's constraints (Sec. "Feedrate planning based on
+"""Feedrate planning along a path under the NURBS corner paper's constraints (Sec. "Feedrate planning based on
 multiple constraints"): sensitive / non-sensitive intervals joined by jerk-limited ramps.
 
-Seed 002 (after its ref. 19) splits the path into intervals where the curvature limit v_f of
+NURBS corner paper (after its ref. 19) splits the path into intervals where the curvature limit v_f of
 Eq. 22 lies below the programmed feed (sensitive) and where it does not (non-sensitive), and joins
 them with S-curve speed changes under tangential acceleration and jerk limits.  What the text
 leaves open, and what we chose:
@@ -53,7 +53,7 @@ class Interval:
 
 
 @dataclass(frozen=True)
-class Plan:
+class FeedPlan:
     """A planned path: its intervals, machining time and the profile sampled in time."""
 
     intervals: tuple[Interval, ...]
@@ -163,7 +163,7 @@ def fit_speeds(lengths: list[float], limits: list[float], machine: Machine) -> l
 
 
 def plan(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool = True, band: float = np.inf,
-         dt: float | None = None) -> Plan:
+         dt: float | None = None) -> FeedPlan:
     """Plan the feed along ``points`` (N, 2) with radius of curvature ``rho`` (N,) at each point.
 
     ``straight=True``: a G01 path (the limits bind at its vertices); ``False``: points sampled on a
@@ -177,7 +177,7 @@ def plan(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool =
     return _profile(intervals, machine, dt if dt is not None else machine.period)
 
 
-def _profile(intervals: tuple[Interval, ...], machine: Machine, dt: float) -> Plan:
+def _profile(intervals: tuple[Interval, ...], machine: Machine, dt: float) -> FeedPlan:
     """Time, distance, speed, acceleration and jerk through the intervals, and the total time."""
     A, J = machine.tangential_acceleration, machine.tangential_jerk
     speeds = [0.0, *(iv.speed for iv in intervals), 0.0]
@@ -206,6 +206,6 @@ def _profile(intervals: tuple[Interval, ...], machine: Machine, dt: float) -> Pl
             t0, s0 = t0 + t[-1], s0 + ds[-1]
     if not pieces:
         zero = np.zeros(1)
-        return Plan(intervals, 0.0, zero, zero, zero, zero, zero)
+        return FeedPlan(intervals, 0.0, zero, zero, zero, zero, zero)
     t, s, v, a, j = (np.concatenate([p[i] for p in pieces]) for i in range(5))
-    return Plan(intervals, float(t0), t, s, v, a, j)
+    return FeedPlan(intervals, float(t0), t, s, v, a, j)

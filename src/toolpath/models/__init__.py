@@ -1,7 +1,6 @@
 """Window classifiers: MCRL, its seven baselines, the exact LocalCurvature rule, one registry."""
 
-from toolpath.models.baselines import CNN, LSTM, MLP, RNN
-from toolpath.models.classifier import TorchClassifier
+from toolpath.models.classic import CNN, LSTM, MLP, RNN
 from toolpath.models.inputs import prepare, random_rotation_reflection
 from toolpath.models.mcrl import MCRL
 from toolpath.models.modern import ConvMixer1d, ConvNeXt1d, MaxViT1d
@@ -10,5 +9,5 @@ from toolpath.models.rule import LocalCurvatureRule
 
 __all__ = [
     "CNN", "LEARNED", "LSTM", "MCRL", "MLP", "MODEL_NAMES", "RNN", "ConvMixer1d", "ConvNeXt1d",
-    "LocalCurvatureRule", "MaxViT1d", "TorchClassifier", "build", "prepare", "random_rotation_reflection",
+    "LocalCurvatureRule", "MaxViT1d", "build", "prepare", "random_rotation_reflection",
 ]

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import importlib
+from collections.abc import Mapping, Sequence
 from typing import Any
-
-from hydra.utils import instantiate
 
 #: The nine model names of Table 3 (plus the exact rule) and the class each config targets.
 MODEL_NAMES = ("mcrl", "mlp", "cnn", "rnn", "lstm", "convmixer", "convnext", "maxvit", "rule")
@@ -20,6 +19,27 @@ def split_schedule(config: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str,
     return network, dict(network.pop("schedule", None) or {})
 
 
+def _plain(value: Any) -> Any:
+    """Config containers (OmegaConf's included) as plain dicts and lists, as the constructors expect."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, Sequence) and not isinstance(value, str):
+        return [_plain(v) for v in value]
+    return value
+
+
 def build(config: Mapping[str, Any]) -> Any:
-    """Instantiate a model from a config with ``_target_`` (lists become tuples for sizes)."""
-    return instantiate(dict(config), _convert_="all")
+    """Instantiate a model from a flat config: ``_target_`` (a dotted class path) and its arguments.
+
+    A few lines instead of Hydra's ``instantiate``, so the domain packages do not depend on Hydra;
+    every ``conf/model`` file is one flat ``_target_`` with plain arguments (tested)."""
+    arguments = _plain(config)
+    target = arguments.pop("_target_", None)
+    if not isinstance(target, str) or "." not in target:
+        raise ValueError(f"a model config needs a `_target_` naming its class, got {target!r}")
+    module, _, name = target.rpartition(".")
+    try:
+        cls = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"model `_target_` {target!r} does not name a class: {exc}") from None
+    return cls(**arguments)

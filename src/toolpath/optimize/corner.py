@@ -1,4 +1,4 @@
-"""Local corner smoothing by NURBS (seed 002, Sec. "Local corner smoothing", Eq. 6-8).
+"""Local corner smoothing by NURBS (the NURBS corner paper, Sec. "Local corner smoothing", Eq. 6-8).
 
 A corner of turning angle theta is drawn in its own frame (Fig. 2b, Fig. 4): the corner P_i at the
 origin, the curve symmetric about the y axis, the legs going down-left and down-right, so

@@ -1,4 +1,4 @@
-"""FDLS / SDLS (seed 002, Figs. 6-7): Double-ResNet surrogates of the PSO corner solver.
+"""FDLS / SDLS (the NURBS corner paper, Figs. 6-7): Double-ResNet surrogates of the PSO corner solver.
 
 * **FDLS** takes the five control points of method 1 (10 numbers, mm, in the corner's frame) and
   predicts the extra point P_{i+3} (its mirror P_{i+4} follows by symmetry).

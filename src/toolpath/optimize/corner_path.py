@@ -1,5 +1,5 @@
 """Smooth every local corner of a G01 path with one corner method, and sample the result for the
-feedrate planner (seed 002, Sec. "Local corner smoothing" applied to a whole path; issue 9).
+feedrate planner (the NURBS corner paper, Sec. "Local corner smoothing" applied to a whole path; issue 9).
 
 A vertex is a local corner when the path turns there by at least ``min_turn`` (smaller turns, such
 as the chords of an arc, are left to the controller's blend).  Each corner gets the room

@@ -1,7 +1,7 @@
 """Every smoothing method behind one call, and the roughness-driven dispatch of Sec. 5.3.
 
 ``smooth(window, method, cfg, seed)`` builds the shared :class:`SmoothingProblem` from ``cfg`` (the
-``optimise`` section of the config) and runs one method on it:
+``optimize`` section of the config) and runs one method on it:
 
 * ``mean_filter`` and ``bezier`` are one-shot smoothers; in ``bound`` mode their result is projected
   onto the tolerance discs like every optimiser's candidates, so no method leaves the bound (and
@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.optimize.baselines import MEALPY_CLASSES, encoding_shift, run_mealpy
+from toolpath.optimize.mealpy_runs import MEALPY_CLASSES, encoding_shift, run_mealpy
 from toolpath.optimize.nacoa import NACOA, NACOASettings, initial_population
 from toolpath.optimize.problem import SmoothingProblem
 from toolpath.optimize.result import SmoothingResult
@@ -105,8 +105,8 @@ def dispatch(category: int, mapping: Mapping) -> str:
         return UNTOUCHED
     key = category if category in mapping else str(category)
     if key not in mapping:
-        raise ValueError(f"optimise.dispatch has no method for category {category}")
+        raise ValueError(f"optimize.dispatch has no method for category {category}")
     method = mapping[key]
     if method not in (*METHODS, UNTOUCHED):
-        raise ValueError(f"optimise.dispatch maps category {category} to unknown method {method!r}")
+        raise ValueError(f"optimize.dispatch maps category {category} to unknown method {method!r}")
     return method

@@ -1,4 +1,4 @@
-"""Planar NURBS curves (seed 002, Eq. 1-6) on scipy's B-splines.
+"""Planar NURBS curves (the NURBS corner paper, Eq. 1-6) on scipy's B-splines.
 
 A NURBS curve is the projection of a B-spline in homogeneous coordinates (w x, w y, w) (Eq. 1);
 scipy's ``BSpline`` evaluates the basis of Eq. 2 and its derivatives (Eq. 3-4), and the quotient

@@ -42,7 +42,7 @@ def clip_displacement(displacement: np.ndarray, tolerance: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SmoothingProblem:
-    """One window to smooth.  ``window`` (n, 2) in mm; fields as in ``conf/optimise``."""
+    """One window to smooth.  ``window`` (n, 2) in mm; fields as in ``conf/optimize``."""
 
     window: np.ndarray
     mode: str = "bound"

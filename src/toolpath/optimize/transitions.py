@@ -1,11 +1,11 @@
-"""Two established corner transitions that stand in for seed 002's refs. 20-21 (issue 9), both held to
+"""Two established corner transitions that stand in for the NURBS corner paper's refs. 20-21 (issue 9), both held to
 the same maximum approximation error delta_max and the same room along the legs as the NURBS of
 :mod:`toolpath.optimize.corner`, in the same corner frame (corner at the origin, legs going down).
 
 * :func:`bspline_transition` — the symmetric cubic B-spline transition of Zhao, Zhu and Ding,
   "A real-time look-ahead interpolation methodology with curvature-continuous B-spline transition
   scheme for CNC machining of short line segments", Int. J. Mach. Tools Manuf. 65 (2013) 88-98:
-  five control points P_{i-2}, P_{i-1}, P_i, P_{i+1}, P_{i+2} (seed 002's method 1, unit weights),
+  five control points P_{i-2}, P_{i-1}, P_i, P_{i+1}, P_{i+2} (the NURBS corner paper's method 1, unit weights),
   with the leg length L chosen in closed form so that the largest deviation is delta_max (every
   deviation of this curve is proportional to L), or the room on the legs when that is shorter.
 * :func:`bezier_transition` — a G2-continuous dual cubic Bezier transition, after Bi, Shi, Wang, Zhu

@@ -1,4 +1,4 @@
-"""Seed 002's results in the report: the corner cases, the FDLS / SDLS surrogates, the machining time
+"""The NURBS corner paper's results in the report: the corner cases, the FDLS / SDLS surrogates, the machining time
 each optimisation method saves, the feed profiles and the surrogates' training curves."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from toolpath.reports.paper import SEED002  # noqa: E402
+from toolpath.reports.paper import NURBS_CORNER_PAPER  # noqa: E402
 from toolpath.reports.tables import Table  # noqa: E402
 
-METHOD_NAMES = {"nurbs_pso": "NURBS + PSO (seed 002)", "nurbs_net": "NURBS + FDLS/SDLS (seed 002)",
+METHOD_NAMES = {"nurbs_pso": "NURBS + PSO (NURBS corner paper)", "nurbs_net": "NURBS + FDLS/SDLS (NURBS corner paper)",
                 "bspline": "cubic B-spline (Zhao 2013)", "bezier": "G2 dual Bezier (Bi 2015)"}
 
 
@@ -26,7 +26,7 @@ def _num(value: float | None, fmt: str) -> str:
 def cases_table(metrics: Mapping) -> Table:
     """Per case and method: curvature reduction (mean / worst / best, against the circular blend and
     against method 1), two-sided error, inside-ness, time, its bounds and the time saved."""
-    table = Table("Seed 002, cases 1-3: corner smoothing and machining time, ours (paper)",
+    table = Table("NURBS corner paper, cases 1-3: corner smoothing and machining time, ours (paper)",
                   ["case", "method", "corners (kept sharp)", "reduction vs arc: mean / worst / best %",
                    "reduction vs method 1: mean / worst / best %", "max two-sided error / mm", "all inside",
                    "time / s", "toppra lower bound / s", "saved vs G01 / %", "saved vs B-spline / %",
@@ -38,12 +38,12 @@ def cases_table(metrics: Mapping) -> Table:
         for method, r in rec["methods"].items():
             reduction = _spread(r, "")
             if case == "w" and method == "nurbs_pso":
-                reduction += f" (best: {SEED002['w_max_reduction_pct']})"
+                reduction += f" (best: {NURBS_CORNER_PAPER['w_max_reduction_pct']})"
             vs = r["time_saved_vs_pct"]
             bs, bz = _num(vs.get("bspline"), "+.1f"), _num(vs.get("bezier"), "+.1f")
             if case == "dress" and method == "nurbs_pso":
-                bs += f" ({SEED002['dress_saved_vs_ref20_pct']})"
-                bz += f" ({SEED002['dress_saved_vs_ref21_pct']})"
+                bs += f" ({NURBS_CORNER_PAPER['dress_saved_vs_ref20_pct']})"
+                bz += f" ({NURBS_CORNER_PAPER['dress_saved_vs_ref21_pct']})"
             table.add([case, METHOD_NAMES.get(method, method), f"{r['corners']} ({r['kept_sharp']})", reduction,
                        _spread(r, "_vs_method1"), _num(r["max_error_mm"], ".3f"), "yes" if r["all_inside"] else "NO",
                        f"{r['time']:.3f}", _num(r.get("lower_bound"), ".3f"),
@@ -56,7 +56,7 @@ def cases_table(metrics: Mapping) -> Table:
         "Error: the exact two-sided distance between each curve and the two legs it replaces; every curve must lie "
         "inside its corner. "
         "The paper's figures (in brackets) are its W case's largest reduction and its dress case's time saved against "
-        "its refs. 20 / 21, which are not the transitions we compare with. Times are the seed 002 planner's "
+        "its refs. 20 / 21, which are not the transitions we compare with. Times are the NURBS corner paper's planner "
         "(sensitive intervals at their lowest limit, S-curve ramps); the toppra bound has no jerk limit. "
         "'Kept sharp': corners no curve met Eq. 7 on (too little room), planned with the controller blend.")
     table.notes += _against_paper(metrics)
@@ -89,7 +89,7 @@ def _against_paper(metrics: Mapping) -> list[str]:
     notes = []
     w = metrics["cases"].get("w", {}).get("methods", {}).get("nurbs_pso")
     if w and w["max_reduction_pct"] is not None:
-        ours, paper = w["max_reduction_pct"], SEED002["w_max_reduction_pct"]
+        ours, paper = w["max_reduction_pct"], NURBS_CORNER_PAPER["w_max_reduction_pct"]
         notes.append(f"W: our largest reduction by NURBS + PSO is {ours:.1f} % against the arc and "
                      f"{_num(w['max_reduction_vs_method1_pct'], '.1f')} % against method 1, "
                      f"{'below' if max(ours, w['max_reduction_vs_method1_pct'] or -1e9) < paper else 'above'} "
@@ -100,16 +100,16 @@ def _against_paper(metrics: Mapping) -> list[str]:
         for other, key in (("bspline", "dress_saved_vs_ref20_pct"), ("bezier", "dress_saved_vs_ref21_pct")):
             saved = dress["time_saved_vs_pct"].get(other)
             if saved is not None:
-                verdict = "less than" if saved < SEED002[key] else "at least"
+                verdict = "less than" if saved < NURBS_CORNER_PAPER[key] else "at least"
                 notes.append(f"Dress: NURBS + PSO saves {saved:+.1f} % of the time of the {other} transition, "
-                             f"{verdict} the {SEED002[key]} % the paper reports against its ref. "
+                             f"{verdict} the {NURBS_CORNER_PAPER[key]} % the paper reports against its ref. "
                              f"{20 if other == 'bspline' else 21}.")
     return notes
 
 
 def corners_table(rows: list[Mapping[str, str]], case: str, methods: list[str]) -> Table:
-    """Seed 002's Table 2 for one case: each corner's curvature before and after, and its error."""
-    table = Table(f"Seed 002, Table 2's content for the {case} path: peak curvature / (1/mm) and two-sided "
+    """The NURBS corner paper's Table 2 for one case: each corner's curvature before and after, and its error."""
+    table = Table(f"NURBS corner paper, Table 2's content for the {case} path: peak curvature / (1/mm) and two-sided "
                   "error / mm per corner",
                   ["vertex", "turn / deg", "before (arc within delta_max)", "method 1 at delta_max",
                    *(f"{METHOD_NAMES.get(m, m)}" for m in methods)])
@@ -134,13 +134,13 @@ def corners_table(rows: list[Mapping[str, str]], case: str, methods: list[str]) 
     table.notes.append("In brackets: the reduction against the arc within delta_max / against method 1. "
                        "The paper's Table 2 (its W "
                        "path, whose dimensions it does not give) reaches a largest reduction of "
-                       f"{SEED002['w_max_reduction_pct']} %.")
+                       f"{NURBS_CORNER_PAPER['w_max_reduction_pct']} %.")
     return table
 
 
 def surrogate_table(metrics: Mapping, timing: Mapping) -> Table:
     s = metrics["surrogates"]
-    table = Table("Seed 002, Figs. 6-9: the FDLS / SDLS surrogates on held-out corners",
+    table = Table("NURBS corner paper, Figs. 6-9: the FDLS / SDLS surrogates on held-out corners",
                   ["training corners", "test corners", "net answer feasible", "repaired weights", "back to PSO",
                    "infeasible", "peak curvature / PSO's", "s per corner: PSO", "s per corner: surrogates"])
     src = s["sources"]
@@ -167,7 +167,7 @@ def windows_table(per_shape: Mapping[str, Mapping], mode: str) -> Table:
             cells.append("-" if stats is None else f"{stats['time_saved_pct']:+.1f} / {stats['max_hausdorff_mm']:.3f}"
                          f" ({stats['windows']} windows)")
         table.add([method, *cells])
-    table.notes.append("Time of the seed 002 planner over the windows (sum), each window a G01 path with the "
+    table.notes.append("Time of the NURBS corner paper planner over the windows (sum), each window a G01 path with the "
                        "controller blend at its vertices; positive: the smoothed windows run faster.")
     return table
 

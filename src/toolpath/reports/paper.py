@@ -55,9 +55,9 @@ TABLE4 = {  # seconds, workload not stated
 # model misclassified one of them (which one is not stated)
 TABLE5_CORRECT = {"mcrl": 4, "convmixer": 3, "convnext": 3, "maxvit": 3, "mlp": 3, "cnn": 3, "rnn": 3, "lstm": 3}
 
-# Xie & Zhu (seed 004), Table 1, per sample-set size and "optimised sorting" (collision avoidance):
+# Xie & Zhu, Table 1, per sample-set size and "optimised sorting" (collision avoidance):
 # (collisions, average empty travel of manual sorting mm, empty travel mm, time s, optimisation rate %).
-SEED004_TABLE1 = {
+XIE_ZHU_TABLE1 = {
     58: {"no": (2, 10650, 8134, 604, 23.6), "yes": (1, 10650, 8021, 544, 24.0)},
     63: {"no": (2, 11560, 9656, 601, 16.5), "yes": (1, 11560, 9132, 580, 21.0)},
     68: {"no": (2, 12193, 10373, 671, 14.9), "yes": (1, 12193, 10295, 626, 15.6)},
@@ -65,7 +65,7 @@ SEED004_TABLE1 = {
     78: {"no": (6, 14089, 12010, 803, 14.7), "yes": (4, 14089, 11461, 714, 18.6)},
 }
 
-# Seed 002 (NURBS corner smoothing, PSO and FDLS / SDLS), the figures its text gives: case 1 (W) the
+# The NURBS corner paper (NURBS corner smoothing, PSO and FDLS / SDLS), the figures its text gives: case 1 (W) the
 # largest curvature reduction at a corner; case 2 (dress) the machining time saved against its
 # refs. 20 and 21 (which we stand in for with a B-spline and a G2 Bezier transition).
-SEED002 = {"w_max_reduction_pct": 92.7, "dress_saved_vs_ref20_pct": 8.0, "dress_saved_vs_ref21_pct": 36.9}
+NURBS_CORNER_PAPER = {"w_max_reduction_pct": 92.7, "dress_saved_vs_ref20_pct": 8.0, "dress_saved_vs_ref21_pct": 36.9}

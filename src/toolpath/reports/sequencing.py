@@ -1,4 +1,4 @@
-"""Seed 004's Table 1 beside ours, the baselines, the expansion study and a Fig. 10-style sheet drawing."""
+"""Xie & Zhu's Table 1 beside ours, the baselines, the expansion study and a Fig. 10-style sheet drawing."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from toolpath.reports.paper import SEED004_TABLE1  # noqa: E402
+from toolpath.reports.paper import XIE_ZHU_TABLE1  # noqa: E402
 from toolpath.reports.tables import Table  # noqa: E402
 
 VARIANTS = {"no": "s_shaped_no_avoidance", "yes": "s_shaped"}
@@ -22,13 +22,13 @@ def _beside(ours: float, paper: float | None, fmt: str) -> str:
     return f"{ours:{fmt}} ({paper:{fmt}})" if paper is not None else f"{ours:{fmt}} (-)"
 
 
-def table1(metrics: Mapping, timing: Mapping) -> Table:
-    """Seed 004 Table 1: ours (paper) per sheet size, without and with collision avoidance."""
-    table = Table("Seed 004, Table 1: S-shaped sequencing, ours (paper)",
+def sequencing_table(metrics: Mapping, timing: Mapping) -> Table:
+    """Xie & Zhu's Table 1: ours (paper) per sheet size, without and with collision avoidance."""
+    table = Table("Xie & Zhu, Table 1: S-shaped sequencing, ours (paper)",
                   ["parts", "collision avoidance", "collisions", "manual empty travel / mm", "empty travel / mm",
                    "planning time / s", "optimisation rate / %", "rate vs paper / points"])
     for n, row in sorted(metrics["sheets"].items(), key=lambda kv: int(kv[0])):
-        paper = SEED004_TABLE1.get(int(n), {})
+        paper = XIE_ZHU_TABLE1.get(int(n), {})
         manual = row.get("manual", {}).get("empty_travel_mm")
         for key, method in VARIANTS.items():
             if method not in row:
@@ -53,7 +53,7 @@ def table1(metrics: Mapping, timing: Mapping) -> Table:
 def baselines_table(metrics: Mapping) -> Table:
     sizes = sorted(metrics["sheets"], key=int)
     methods = [m for m in BASELINES if all(m in metrics["sheets"][n] for n in sizes)]
-    table = Table("Seed 004: empty travel / mm and collisions of every method, per sheet",
+    table = Table("Xie & Zhu: empty travel / mm and collisions of every method, per sheet",
                   ["method", *(f"{n} parts" for n in sizes)])
     for m in methods:
         cells = []
@@ -74,7 +74,7 @@ def baselines_table(metrics: Mapping) -> Table:
 
 
 def expansion_table(metrics: Mapping, sheet: int) -> Table:
-    table = Table(f"Seed 004, Fig. 9 as a table: expansion count of the primary region ({sheet} parts)",
+    table = Table(f"Xie & Zhu, Fig. 9 as a table: expansion count of the primary region ({sheet} parts)",
                   ["expansions", "empty travel / mm", "collisions"])
     for count, s in sorted(metrics["expansion"].items(), key=lambda kv: int(kv[0])):
         table.add([count, f"{s['empty_travel_mm']:.0f}", s["collisions"]])

@@ -1,7 +1,7 @@
 """Smoothing side of the report: Table 6, the curvature reductions of Sec. 5.2.4, Figs. 8-11 and
 the reduction / deviation trade-off the paper omits.
 
-Inputs are the ``optimise`` stage's outputs, loaded by the caller: per shape the summary JSON
+Inputs are the ``optimize`` stage's outputs, loaded by the caller: per shape the summary JSON
 (``metrics``), the timing JSON (``timing``), the per-window CSV rows (``rows``: dicts of strings)
 and the smoothed windows (``smoothed``: arrays ``points``, ``window``, ``method``, ``mode``,
 ``encoding``) beside the original windows.

@@ -1,7 +1,7 @@
 """Tables as data, rendered to Markdown and LaTeX with the paper's value beside ours.
 
 A :class:`Table` holds a title, column headers and rows of cells; numbers are formatted once,
-so the Markdown and LaTeX versions always agree.  :func:`table1` (category counts), :func:`table2`
+so the Markdown and LaTeX versions always agree.  :func:`categories_table` (Table 1's category counts), :func:`table2`
 (hyperparameters and training time) and :func:`table3` (ours beside the paper, the difference,
 the best of each of our columns in bold) cover the classification side.
 """
@@ -83,7 +83,7 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
     return table
 
 
-def table1(label_metrics: Mapping[str, Mapping]) -> Table:
+def categories_table(label_metrics: Mapping[str, Mapping]) -> Table:
     """Table 1's categories with our window count and share per shape (the paper gives none)."""
     shapes = list(label_metrics)
     table = Table("Table 1: roughness categories (LocalCurvature, Eq. 3) with our window counts and shares",

@@ -1,14 +1,14 @@
-"""Seed 004: S-shaped sequencing by region segmentation of many parts on one sheet, and baselines."""
+"""Xie & Zhu: S-shaped sequencing by region segmentation of many parts on one sheet, and baselines."""
 
 from toolpath.sequencing.experiment import METHODS, Outcome, run_sheet, s_shaped
 from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import Plan, Visit, part_tree, plan_path
+from toolpath.sequencing.planner import SheetPlan, Visit, part_tree, plan_path
 from toolpath.sequencing.program import sheet_program
 from toolpath.sequencing.regions import Region, s_shaped_regions
 from toolpath.sequencing.score import score
 from toolpath.sequencing.sheets import KINDS, Sheet, make_sheet
 
 __all__ = [
-    "KINDS", "METHODS", "Outcome", "Part", "Plan", "Region", "Sheet", "Visit", "make_sheet", "part_tree",
+    "KINDS", "METHODS", "Outcome", "Part", "SheetPlan", "Region", "Sheet", "Visit", "make_sheet", "part_tree",
     "plan_path", "run_sheet", "s_shaped", "s_shaped_regions", "score", "sheet_program",
 ]

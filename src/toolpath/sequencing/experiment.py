@@ -1,4 +1,4 @@
-"""Every method of seed 004's comparison on one sheet, scored alike (Table 1 and the baselines)."""
+"""Every method of Xie & Zhu's comparison on one sheet, scored alike (Table 1 and the baselines)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from toolpath.sequencing.baselines import gtsp_plan, manual_order, nearest_neighbour_order
-from toolpath.sequencing.planner import Plan, part_tree, plan_path
+from toolpath.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
+from toolpath.sequencing.planner import SheetPlan, part_tree, plan_path
 from toolpath.sequencing.regions import Region, s_shaped_regions
 from toolpath.sequencing.score import score
 from toolpath.sequencing.sheets import Sheet
@@ -18,14 +18,14 @@ METHODS = ("s_shaped", "s_shaped_no_avoidance", "manual", "nearest_neighbour", "
 
 @dataclass
 class Outcome:
-    plan: Plan
+    plan: SheetPlan
     scores: dict[str, float]
     seconds: float
     facts: dict
 
 
 def s_shaped(sheet: Sheet, expansions: int, start_up: bool, handle: bool, max_handling: int,
-             tree=None) -> tuple[Plan, list[Region]]:
+             tree=None) -> tuple[SheetPlan, list[Region]]:
     regions = s_shaped_regions(sheet.parts, expansions, start_up)
     order = [p for r in regions for p in r.order]
     region_of = [0] * len(sheet.parts)

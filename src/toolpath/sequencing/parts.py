@@ -1,6 +1,6 @@
 """A part on the sheet: its closed contour, centroid, envelope rectangle and arc-length positions.
 
-Seed 004 (Xie & Zhu) calls parts "samples".  The centroid is the feature point every sorting rule
+Xie & Zhu call parts "samples".  The centroid is the feature point every sorting rule
 uses (Sec. IV); the envelope rectangle is the axis-aligned bounding box.  Positions along a contour
 are arc lengths from its first vertex in its own (counter-clockwise) order, so the length of the
 contour travelled between an entry and an exit point is ``min(|s1 - s2|, L - |s1 - s2|)`` (Eq. 6).

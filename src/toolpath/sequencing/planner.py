@@ -1,4 +1,4 @@
-"""Machining paths along a search order, with seed 004's collision handling (Sec. VI.B).
+"""Machining paths along a search order, with Xie & Zhu's collision handling (Sec. VI.B).
 
 A plan is a list of visits.  A full visit enters a part, cuts its whole contour, then follows the
 contour the shorter way to its exit (that stretch is cut twice: empty travel); a via visit only
@@ -42,7 +42,7 @@ class Visit:
 
 
 @dataclass
-class Plan:
+class SheetPlan:
     visits: list[Visit]
     handled: dict[str, int] = field(default_factory=lambda: {"unsearched": 0, "searched_in_region": 0,
                                                               "searched_outside": 0})
@@ -58,7 +58,7 @@ def part_tree(parts: Sequence[Part]) -> STRtree:
 
 def plan_path(parts: Sequence[Part], order: Sequence[int], region_of: Sequence[int],
               up_of_region: Sequence[bool] | None = None, handle_collisions: bool = False,
-              limit_detection: bool = True, max_handling: int = 6, tree: STRtree | None = None) -> Plan:
+              limit_detection: bool = True, max_handling: int = 6, tree: STRtree | None = None) -> SheetPlan:
     """Exit/entry points along ``order`` (Eq. 4-6), with collision handling when asked (Sec. VI.B).
 
     ``region_of[p]`` is part p's region; detection looks at regions r-1..r+1 of the current one
@@ -74,7 +74,7 @@ def plan_path(parts: Sequence[Part], order: Sequence[int], region_of: Sequence[i
     visits = [Visit(first, int(region[first]), parts[first].ring[0].copy(), 0.0)]
     queue: deque[tuple[int, bool]] = deque((p, True) for p in order[1:])
     searched = {first}
-    plan = Plan(visits)
+    plan = SheetPlan(visits)
     steps, budget = 0, max_handling * len(parts)
 
     def area(r: int) -> np.ndarray | None:

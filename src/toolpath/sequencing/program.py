@@ -14,7 +14,7 @@ import numpy as np
 
 from toolpath.gcode.writer import ProgramSpec, fmt, g1_moves
 from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import Plan, Visit
+from toolpath.sequencing.planner import SheetPlan, Visit
 
 
 def visit_path(part: Part, visit: Visit) -> np.ndarray:
@@ -36,7 +36,7 @@ def visit_path(part: Part, visit: Visit) -> np.ndarray:
     return np.vstack(pieces)
 
 
-def sheet_program(plan: Plan, parts: Sequence[Part], spec: ProgramSpec, depth: float, title: str) -> str:
+def sheet_program(plan: SheetPlan, parts: Sequence[Part], spec: ProgramSpec, depth: float, title: str) -> str:
     """The G-code text of ``plan``; ``depth`` is the cutting Z (mm)."""
     d, nl = spec.decimals, spec.newline
     x0, y0 = plan.visits[0].entry_xy

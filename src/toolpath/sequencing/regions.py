@@ -1,4 +1,4 @@
-"""Region segmentation and sorting of seed 004 (Sec. IV-V): the S-shaped search order.
+"""Region segmentation and sorting of Xie & Zhu (Sec. IV-V): the S-shaped search order.
 
 Each molecular region (MR) is a vertical strip of parts, searched upwards or downwards, the
 direction alternating from region to region, so the regions together form an S.  Inside a region

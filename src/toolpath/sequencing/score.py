@@ -1,6 +1,6 @@
 """Empty travel, collisions and machining time of a plan: one scoring for every method.
 
-Empty travel (seed 004, Table 1) is everything the tool travels besides cutting each contour once:
+Empty travel (Xie & Zhu, Table 1) is everything the tool travels besides cutting each contour once:
 the transition lines plus the stretches of contour travelled a second time (from a part's entry to
 its exit after the full cut, and along via visits).  A collision is a transition line meeting a part
 anywhere but at its own two ends (Eq. 4-5), checked against every part on the sheet, not only the
@@ -16,18 +16,18 @@ import numpy as np
 from shapely import STRtree
 
 from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import Plan
+from toolpath.sequencing.planner import SheetPlan
 from toolpath.sequencing.transitions import line_colliders, shortened_lines
 
 
-def transitions(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
+def transitions(plan: SheetPlan) -> tuple[np.ndarray, np.ndarray]:
     """Start (exit) and end (entry) points of every transition line, (k, 2) each."""
     starts = np.array([v.exit_xy for v in plan.visits[:-1]]).reshape(-1, 2)
     ends = np.array([v.entry_xy for v in plan.visits[1:]]).reshape(-1, 2)
     return starts, ends
 
 
-def collisions(plan: Plan, parts: Sequence[Part], tree: STRtree) -> list[tuple[int, int]]:
+def collisions(plan: SheetPlan, parts: Sequence[Part], tree: STRtree) -> list[tuple[int, int]]:
     """(transition index, part index) for every part a transition line meets beyond its ends."""
     starts, ends = transitions(plan)
     if not len(starts):
@@ -36,7 +36,7 @@ def collisions(plan: Plan, parts: Sequence[Part], tree: STRtree) -> list[tuple[i
     return [(k, p) for k, h in enumerate(hits) for p in sorted(h)]
 
 
-def score(plan: Plan, parts: Sequence[Part], tree: STRtree, feed: float) -> dict[str, float]:
+def score(plan: SheetPlan, parts: Sequence[Part], tree: STRtree, feed: float) -> dict[str, float]:
     """Scores of ``plan``; ``feed`` (mm/min) converts path length into machining time.
 
     Raises ValueError when a part is not cut in full exactly once.

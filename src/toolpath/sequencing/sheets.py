@@ -1,4 +1,4 @@
-"""Seeded sheets of many non-overlapping parts: the inputs of seed 004's experiments (Table 1).
+"""Seeded sheets of many non-overlapping parts: the inputs of Xie & Zhu's experiments (Table 1).
 
 The paper's sponge sample sets are not published; ours mix the three part families of the
 roughness papers (gear, pentagram boss, maple leaf, from :mod:`toolpath.shapes`) with simple

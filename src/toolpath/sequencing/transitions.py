@@ -1,4 +1,4 @@
-"""Exit and entry points between two consecutive parts (seed 004, Sec. VI.A, Eq. 4-6).
+"""Exit and entry points between two consecutive parts (Xie & Zhu, Sec. VI.A, Eq. 4-6).
 
 Candidate (exit on C_i, entry on C_{i+1}) pairs come from the paper's four sources: a) vertex to
 vertex; b) vertex of C_i to the nearest interior point of each edge of C_{i+1}; c) the converse;

@@ -1,4 +1,4 @@
-"""Seed 002's three case paths (Figs. 11-14), built parametrically as G01 polylines (mm).
+"""The NURBS corner paper's three case paths (Figs. 11-14), built parametrically as G01 polylines (mm).
 
 The paper shows them only as pictures, so the sizes are ours; each keeps the character the text
 gives it:

@@ -22,11 +22,11 @@ import torch
 from omegaconf import OmegaConf
 
 from toolpath import config, tracking
-from toolpath.models.classifier import from_checkpoint
 from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import load_checkpoint, load_windows, progress, write_json
 from toolpath.training import qat
 from toolpath.training.bench import branch_profile, compiled, threads, timed
+from toolpath.training.classifier import from_checkpoint
 
 
 def machine(thread_count: int) -> dict:

@@ -1,4 +1,4 @@
-"""Seed 002's corner smoothing: PSO-solved corners, the FDLS / SDLS surrogates trained on them, and the
+"""The NURBS corner paper's corner smoothing: PSO-solved corners, the FDLS / SDLS surrogates trained on them, and the
 W, dress and torch cases planned against two comparison transitions.  Run: python -m toolpath.stages.corner
 
 Writes ``<paths.corner>/surrogates.pt`` (FDLS and SDLS), ``<paths.corner>/profiles.npz`` (each case's

@@ -1,7 +1,7 @@
-"""Machining time of every window the optimise stage smoothed, and of its original (issue 9).
+"""Machining time of every window the optimize stage smoothed, and of its original (issue 9).
 Run: python -m toolpath.stages.feedrate --shape gear
 
-Each window is a G01 polyline: the planner of :mod:`toolpath.feedrate` runs it under seed 002's limits
+Each window is a G01 polyline: the planner of :mod:`toolpath.feedrate` runs it under the NURBS corner paper's limits
 (Eq. 15-22) with the controller blend of ``feedrate.blend_tolerance`` at each vertex.  Writes
 ``<paths.metrics>/feedrate/<shape>.json`` (per fidelity mode, encoding and method: windows, mean
 original and smoothed time, time saved, largest two-sided (Hausdorff) distance between a smoothed
@@ -38,7 +38,7 @@ ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smo
 
 
 def load_smoothed(path: Path) -> dict:
-    return load_arrays(path, ("points", "window", "method", "mode", "encoding"), "smoothed-windows", "optimise")
+    return load_arrays(path, ("points", "window", "method", "mode", "encoding"), "smoothed-windows", "optimize")
 
 
 def summarise(rows: list[dict]) -> dict:

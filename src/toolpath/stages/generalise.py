@@ -19,10 +19,9 @@ from omegaconf import OmegaConf
 from toolpath import config, tracking
 from toolpath.gcode import GCodeError, ReaderOptions, read_file
 from toolpath.labels import label_program
-from toolpath.models import TorchClassifier
-from toolpath.models.classifier import from_checkpoint, to_checkpoint
 from toolpath.models.registry import split_schedule
 from toolpath.stages._common import load_checkpoint, load_windows, save_checkpoint, write_json
+from toolpath.training.classifier import TorchClassifier, from_checkpoint, to_checkpoint
 from toolpath.training.generalise import best_by_validation, cross_shape_matrix
 from toolpath.training.metrics import classification_metrics
 

@@ -25,10 +25,10 @@ import torch
 from omegaconf import OmegaConf
 
 from toolpath import config, tracking
-from toolpath.models.classifier import from_checkpoint
 from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import clean_dir, load_checkpoint, load_windows, progress, shape_arg, write_json
 from toolpath.training import qat
+from toolpath.training.classifier import from_checkpoint
 from toolpath.training.loop import TrainSettings, predict_logits
 from toolpath.training.metrics import classification_metrics
 from toolpath.training.progress import EpochBar

@@ -27,7 +27,7 @@ from toolpath.reports import summary as report_summary
 from toolpath.reports.document import Section, replace_block, report_markdown
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import table4
-from toolpath.reports.tables import Table, table1, table2, table3
+from toolpath.reports.tables import Table, categories_table, table2, table3
 
 
 class Missing(Exception):
@@ -93,7 +93,7 @@ class Report:
     def categories(self) -> str:
         files = {s: self.metrics("label", f"{s}.json") for s in self.shapes}
         require(list(files.values()), "label")
-        return self.table(table1({s: read_json(p) for s, p in files.items()}), "table1_categories")
+        return self.table(categories_table({s: read_json(p) for s, p in files.items()}), "table1_categories")
 
     def train_metrics(self) -> dict[str, dict[str, dict]]:
         files = {(s, m): self.metrics("train", s, f"{m}.json") for s in self.shapes for m in self.cfg.train.models}
@@ -180,11 +180,11 @@ class Report:
 
     # ---- smoothing ------------------------------------------------------------------------
     def optimise_inputs(self) -> dict[str, dict]:
-        files = {s: {"metrics": self.metrics("optimise", f"{s}.json"), "rows": self.metrics("optimise", f"{s}.csv"),
-                     "timing": Path(self.paths.timing) / "optimise" / f"{s}.json",
+        files = {s: {"metrics": self.metrics("optimize", f"{s}.json"), "rows": self.metrics("optimize", f"{s}.csv"),
+                     "timing": Path(self.paths.timing) / "optimize" / f"{s}.json",
                      "smoothed": Path(self.paths.smoothed) / f"{s}.npz",
                      "windows": Path(self.paths.windows) / f"{s}.npz"} for s in self.shapes}
-        require([p for f in files.values() for p in f.values()], "optimise")
+        require([p for f in files.values() for p in f.values()], "optimize")
         out = {}
         for s, f in files.items():
             with np.load(f["smoothed"]) as smoothed, np.load(f["windows"]) as windows:
@@ -233,7 +233,7 @@ class Report:
                                  "method (mean: large marker), the trade-off the paper does not report"))
         return "\n".join(parts)
 
-    # ---- sequencing (seed 004) -------------------------------------------------------------
+    # ---- sequencing (Xie & Zhu) -------------------------------------------------------------
     def sequencing(self) -> str:
         seq = self.cfg.sequence
         metrics_path, timing_path = self.metrics("sequence.json"), Path(self.paths.timing) / "sequence.json"
@@ -241,18 +241,18 @@ class Report:
         plans_path = Path(self.paths.sequence) / f"sheet_{seq.figure_sheet}.json"
         require([metrics_path, timing_path, sheet_path, plans_path], "sequence")
         metrics, plans = read_json(metrics_path), read_json(plans_path)
-        parts = [self.table(seqr.table1(metrics, read_json(timing_path)), "table7_sequencing"),
+        parts = [self.table(seqr.sequencing_table(metrics, read_json(timing_path)), "table7_sequencing"),
                  self.table(seqr.baselines_table(metrics), "table8_sequencing_baselines"),
                  self.table(seqr.expansion_table(metrics, seq.expansion_study.sheet), "table9_expansion")]
         shown = {title: plans[m] for title, m in (("without collision avoidance", "s_shaped_no_avoidance"),
                                                   ("with collision avoidance", "s_shaped")) if m in plans}
         if shown:
             parts.append(self.figure(seqr.sheet_figure(read_json(sheet_path), shown), "fig15_sequence",
-                                     f"Seed 004, Fig. 10's style: the S-shaped plan of the {seq.figure_sheet}-part "
+                                     f"Xie & Zhu, Fig. 10's style: the S-shaped plan of the {seq.figure_sheet}-part "
                                      "sheet, entry points red, exit points yellow, transitions blue, collisions red"))
         return "\n".join(parts)
 
-    # ---- corner smoothing and feedrate (seed 002) --------------------------------------------
+    # ---- corner smoothing and feedrate (the NURBS corner paper) --------------------------------------------
     def corners_and_feedrate(self) -> str:
         corner, timing = self.metrics("corner.json"), Path(self.paths.timing) / "corner.json"
         require([self.metrics("corner_corners.csv")], "corner")
@@ -269,13 +269,13 @@ class Report:
                  self.table([fr.corners_table(rows, case, methods) for case in cases], "table13_corners"),
                  self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
                  self.table(fr.pso_study_table(metrics), "table14_pso_size"),
-                 self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimise.modes],
+                 self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimize.modes],
                             "table12_time_saved"),
                  self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
-                             "Seed 002, Figs. 11-14: each case path smoothed by every method (top) and its planned "
+                             "NURBS corner paper, Figs. 11-14: each case path smoothed by every method (top) and its planned "
                              "feed (bottom)"),
                  self.figure(fr.training_figure(read_columns(curves)), "fig17_surrogate_training",
-                             "Seed 002, Figs. 8-9: training loss of FDLS and SDLS")]
+                             "NURBS corner paper, Figs. 8-9: training loss of FDLS and SDLS")]
         return "\n".join(parts)
 
     def sections(self) -> list[Section]:
@@ -290,8 +290,8 @@ class Report:
             ("Table 5: classification of random windows", self.classification),
             ("Table 6: optimisers and curvature reduction", self.optimisers),
             ("Figures 8-11 and the reduction / deviation trade-off", self.smoothing_figures),
-            ("Seed 004: sequencing many parts on one sheet", self.sequencing),
-            ("Seed 002: corner smoothing, feedrate and machining time", self.corners_and_feedrate),
+            ("Xie & Zhu: sequencing many parts on one sheet", self.sequencing),
+            ("NURBS corner paper: corner smoothing, feedrate and machining time", self.corners_and_feedrate),
         ]
         result = []
         for title, build in plan:
@@ -314,8 +314,8 @@ def paper_profile_train(shapes: list[str]) -> dict[str, dict]:
 
 def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -> tuple[dict, dict]:
     """One seeded random test window per category, and each model's predicted category for it."""
-    from toolpath.models.classifier import from_checkpoint
     from toolpath.stages._common import load_checkpoint, load_windows
+    from toolpath.training.classifier import from_checkpoint
 
     data = load_windows(windows_path)
     rng = np.random.default_rng(seed)

@@ -1,4 +1,4 @@
-"""Sequence every sheet by seed 004's S-shaped algorithm and the baselines.  Run: python -m toolpath.stages.sequence
+"""Sequence every sheet by Xie & Zhu's S-shaped algorithm and the baselines.  Run: python -m toolpath.stages.sequence
 
 Reads ``<paths.sheets>/sheet_<n>.json``; writes ``<paths.sequence>/sheet_<n>.nc`` (the S-shaped plan
 with collision avoidance as one continuous-cut program) and ``sheet_<n>.json`` (every method's
@@ -17,7 +17,7 @@ from omegaconf import OmegaConf
 from toolpath import config, tracking
 from toolpath.gcode.writer import ProgramSpec
 from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
-from toolpath.sequencing.planner import Plan
+from toolpath.sequencing.planner import SheetPlan
 from toolpath.sequencing.score import collisions
 from toolpath.stages._common import clean_dir, progress, write_json
 
@@ -31,7 +31,7 @@ def load_sheet(path: Path) -> Sheet:
         raise SystemExit(f"{path}: not a readable sheet ({exc})") from None
 
 
-def plan_record(plan: Plan, sheet: Sheet) -> dict:
+def plan_record(plan: SheetPlan, sheet: Sheet) -> dict:
     """Visits and collisions of a plan, as JSON (mm, 4 decimals)."""
     def xy(p):
         return None if p is None else [round(float(p[0]), 4), round(float(p[1]), 4)]
@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
                                for m, o in outcomes.items()}
             write_json({m: plan_record(o.plan, sheet) for m, o in outcomes.items()}, out / f"sheet_{n}.json")
             if "s_shaped" in outcomes:
-                title = f"seed 004 S-shaped sequencing, {n} parts, seed {cfg.seed}, continuous cut"
+                title = f"Xie & Zhu S-shaped sequencing, {n} parts, seed {cfg.seed}, continuous cut"
                 (out / f"sheet_{n}.nc").write_text(
                     sheet_program(outcomes["s_shaped"].plan, sheet.parts, spec, seq["depth"], title), encoding="utf-8")
         study = seq["expansion_study"]

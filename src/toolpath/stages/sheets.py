@@ -1,4 +1,4 @@
-"""Lay out seed 004's sheets of many parts.  Run: python -m toolpath.stages.sheets
+"""Lay out Xie & Zhu's sheets of many parts.  Run: python -m toolpath.stages.sheets
 
 Writes ``<paths.sheets>/sheet_<n>.json`` per part count of ``sheets.counts``: the sheet size and
 every part's kind and contour (mm), the data the ``sequence`` stage reads.

@@ -17,11 +17,11 @@ from pathlib import Path
 import torch
 
 from toolpath import config, tracking
-from toolpath.models import MODEL_NAMES, TorchClassifier, build
-from toolpath.models.classifier import to_checkpoint
+from toolpath.models import MODEL_NAMES, build
 from toolpath.reports.figures import confusion_figure
 from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import load_windows, save_checkpoint, write_json
+from toolpath.training.classifier import TorchClassifier, to_checkpoint
 from toolpath.training.metrics import classification_metrics
 from toolpath.training.progress import EpochBar
 from toolpath.training.setup import model_and_settings

@@ -40,7 +40,7 @@ def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
     """Validation and test metrics (``classification_metrics``), epochs run and seconds of one training."""
     import torch
 
-    from toolpath.models import TorchClassifier
+    from toolpath.training.classifier import TorchClassifier
     from toolpath.training.metrics import classification_metrics
     from toolpath.training.setup import model_and_settings
 

@@ -1,12 +1,12 @@
 """Smooth a seeded sample of one shape's test windows with every method (Sec. 4.2, 5.2-5.3, Table 6).
 
-Run: python -m toolpath.stages.optimise --shape gear
+Run: python -m toolpath.stages.optimize --shape gear
 
-Writes, under ``<paths.metrics>/optimise/``: ``<shape>.csv`` (one row per window, fidelity mode,
+Writes, under ``<paths.metrics>/optimize/``: ``<shape>.csv`` (one row per window, fidelity mode,
 method and encoding; the ``seconds`` column is the only one that varies between runs) and
 ``<shape>.json`` (mean reduction, deviation, per category, dispatch: deterministic); under
-``<paths.timing>/optimise/<shape>.json`` Table 6's time, evaluations, complexity and Eq. 34
-efficiency; ``<paths.plots>/optimise/<shape>.csv`` convergence curves (bound mode, plain encoding,
+``<paths.timing>/optimize/<shape>.json`` Table 6's time, evaluations, complexity and Eq. 34
+efficiency; ``<paths.plots>/optimize/<shape>.csv`` convergence curves (bound mode, plain encoding,
 baseline windows); and ``<paths.smoothed>/<shape>.npz`` every smoothed window, for the report.
 """
 
@@ -21,8 +21,8 @@ import numpy as np
 from omegaconf import OmegaConf
 
 from toolpath import config, tracking
-from toolpath.optimize.baselines import MEALPY_CLASSES
 from toolpath.optimize.evaluate import ROW_FIELDS, convergence, summarise, timing, window_row
+from toolpath.optimize.mealpy_runs import MEALPY_CLASSES
 from toolpath.optimize.methods import BASELINE_ONLY, METHODS, dispatch, smooth
 from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import grouped_metrics, load_windows, progress, shape_arg, write_json, write_rows
@@ -48,7 +48,7 @@ def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
     paper's permuting initialisation only on the baseline windows."""
     unknown = [m for m in ocfg["methods"] if m not in METHODS]
     if unknown:
-        raise SystemExit(f"params.yaml: optimise.methods has unknown method(s) {', '.join(unknown)}; "
+        raise SystemExit(f"params.yaml: optimize.methods has unknown method(s) {', '.join(unknown)}; "
                          f"known: {', '.join(METHODS)}")
     tasks = []
     for index, category, baselines in chosen:
@@ -71,7 +71,7 @@ def _run(job: tuple[dict, np.ndarray, dict, int]) -> tuple[dict, np.ndarray, lis
 def main(argv: list[str] | None = None) -> None:
     args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
-    ocfg = OmegaConf.to_container(cfg.optimise, resolve=True)
+    ocfg = OmegaConf.to_container(cfg.optimize, resolve=True)
     data = load_windows(Path(cfg.paths.windows) / f"{args.shape}.npz")
     chosen = sample_windows(data["label"], data["split"], ocfg["sample"],
                             config.seed_for(cfg.seed, "optimise", args.shape))
@@ -80,26 +80,26 @@ def main(argv: list[str] | None = None) -> None:
     # one seed per window and mode, shared by every method: the same start and the same draws
     jobs = [(t, windows[t["window"]], ocfg, config.seed_for(cfg.seed, "optimise", args.shape, str(t["window"]),
                                                              t["mode"])) for t in tasks]
-    params = {**config.flat(ocfg, "optimise"), "windows": len(chosen), "runs": len(tasks)}
-    with tracking.stage_run(f"optimise@{args.shape}", params, shape=args.shape):
+    params = {**config.flat(ocfg, "optimize"), "windows": len(chosen), "runs": len(tasks)}
+    with tracking.stage_run(f"optimize@{args.shape}", params, shape=args.shape):
         import mlflow
 
         # spawn, not fork: the parent holds MLflow's threads; results do not depend on the worker count
         with ProcessPoolExecutor(ocfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
             # results in submission order, so the output does not depend on which worker finished first
             futures = [pool.submit(_run, job) for job in jobs]
-            outputs = [future.result() for future in progress(futures, f"optimise {args.shape}")]
+            outputs = [future.result() for future in progress(futures, f"optimize {args.shape}")]
         rows = [o[0] for o in outputs]
         mapping = {int(k): v for k, v in ocfg["dispatch"].items()}
         categories = sorted({c for _, c, _ in chosen})
         summary = summarise(rows, {c: dispatch(c, mapping) for c in categories})
         summary["sample"] = {"windows": len(chosen), "runs": len(tasks),
                              "per_category": {str(c): sum(1 for _, k, _ in chosen if k == c) for c in categories}}
-        metrics_dir = Path(cfg.paths.metrics) / "optimise"
+        metrics_dir = Path(cfg.paths.metrics) / "optimize"
         write_rows(rows, ROW_FIELDS, metrics_dir / f"{args.shape}.csv")
         write_json(summary, metrics_dir / f"{args.shape}.json")
-        write_json(timing(rows), Path(cfg.paths.timing) / "optimise" / f"{args.shape}.json")
-        _write_convergence(tasks, outputs, Path(cfg.paths.plots) / "optimise" / f"{args.shape}.csv")
+        write_json(timing(rows), Path(cfg.paths.timing) / "optimize" / f"{args.shape}.json")
+        _write_convergence(tasks, outputs, Path(cfg.paths.plots) / "optimize" / f"{args.shape}.csv")
         smoothed = Path(cfg.paths.smoothed) / f"{args.shape}.npz"
         smoothed.parent.mkdir(parents=True, exist_ok=True)
         # float64: float32 rounding of coordinates near 100 mm (~4 um) would break the tolerance on reload

@@ -1,4 +1,4 @@
-"""Baseline orders scored beside seed 004's algorithm.
+"""Baseline orders scored beside Xie & Zhu's algorithm.
 
 - ``manual_order``: what an operator does by hand in a CAM system: rows of parts bottom to top
   (a new row starts when a centroid lies more than one median part height above the row's first),
@@ -25,7 +25,7 @@ import shapely
 from shapely import STRtree
 
 from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import Plan, Visit
+from toolpath.sequencing.planner import SheetPlan, Visit
 from toolpath.sequencing.transitions import best_transition
 
 
@@ -75,7 +75,7 @@ def nearest_neighbour_order(parts: Sequence[Part], tree: STRtree, k: int = 6) ->
 
 
 def gtsp_plan(parts: Sequence[Part], points: int = 8, solution_limit: int = 2000,
-              time_limit: float = 30.0, metaheuristic: str = "greedy_descent") -> tuple[Plan, dict]:
+              time_limit: float = 30.0, metaheuristic: str = "greedy_descent") -> tuple[SheetPlan, dict]:
     """OR-Tools generalised-TSP plan and its solver facts (status, whether the time cap stopped it)."""
     from ortools.constraint_solver import pywrapcp, routing_enums_pb2
 
@@ -117,4 +117,4 @@ def gtsp_plan(parts: Sequence[Part], points: int = 8, solution_limit: int = 2000
         v.exit_xy, v.exit_s = v.entry_xy.copy(), v.entry_s
     facts = {"objective_mm": solution.ObjectiveValue() / 100.0, "seconds": elapsed,
              "time_capped": elapsed >= 0.98 * time_limit}
-    return Plan(visits), facts
+    return SheetPlan(visits), facts

@@ -1,0 +1,24 @@
+"""Imports flow one way: every sub-package imports on its own in a fresh interpreter, and no domain
+package pulls in Hydra, DVC or MLflow (only stages, the sweep, config and tracking may)."""
+
+import subprocess
+import sys
+
+import pytest
+
+DOMAIN = ("gcode", "geometry", "shapes", "labels", "models", "training", "optimize", "feedrate", "sequencing",
+          "reports")
+WIRING = ("stages", "sweep", "config", "tracking")
+CHECK = """
+import importlib, sys
+importlib.import_module("toolpath.{name}")
+print(",".join(sorted(m for m in ("hydra", "dvc", "mlflow") if m in sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("name", DOMAIN + WIRING)
+def test_each_sub_package_imports_on_its_own(name):
+    done = subprocess.run([sys.executable, "-c", CHECK.format(name=name)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    if name in DOMAIN:
+        assert done.stdout.strip() == "", f"toolpath.{name} imports {done.stdout.strip()}"
