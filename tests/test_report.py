@@ -88,9 +88,9 @@ def test_blocks_sections_and_summaries():
     assert missing == "## T\n\n**Missing section**: needs `f.json`; run `dvc repro s`.\n"
     summary = table3_summary({"gear": {"mcrl": _metrics(0.5), "mlp": {"test": {**_metrics(0.9)["test"], "f1": 0.95}}}})
     assert "| gear | 50.0 % / 65.0 % (94.8 % / 94.8 %) | mlp 90.0 % / 95.0 % | - |" in summary
-    table = categories_table({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": {"1": 0.75, "2": 0.25,
-                                                                                             "3": 0.0, "4": 0.0},
-                             "windows": 4}})
+    shares = {"1": 0.75, "2": 0.25, "3": 0.0, "4": 0.0}
+    table = categories_table({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": shares,
+                                       "windows": 4}})
     assert table.rows[0] == ["1 smooth", "<= 1.9", "3 (75.0 %)"] and table.rows[-1] == ["all", "", "4 (100 %)"]
 
 

@@ -272,8 +272,8 @@ class Report:
                  self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimize.modes],
                             "table12_time_saved"),
                  self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
-                             "NURBS corner paper, Figs. 11-14: each case path smoothed by every method (top) and its planned "
-                             "feed (bottom)"),
+                             "NURBS corner paper, Figs. 11-14: each case path smoothed by every method (top) and "
+                             "its planned feed (bottom)"),
                  self.figure(fr.training_figure(read_columns(curves)), "fig17_surrogate_training",
                              "NURBS corner paper, Figs. 8-9: training loss of FDLS and SDLS")]
         return "\n".join(parts)
