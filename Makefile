@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 export DVC_NO_ANALYTICS := 1
 
-.PHONY: install repro test test-fast bench params lint clean-venv
+.PHONY: install repro readme test test-fast bench params lint clean-venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,11 @@ install: $(STAMP)
 repro: install
 	$(PY) -m toolpath.config
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/dvc repro
+	$(PY) -m toolpath.reports.readme
+
+## Put the report's summary block (reports/readme_block.md, a DVC output) into README.md.
+readme: install
+	$(PY) -m toolpath.reports.readme
 
 ## The whole test suite (unit, config, stage and one end-to-end pipeline test).  Two xdist workers:
 ## the end-to-end pipeline (mostly one busy core: process start-up) runs beside the rest.

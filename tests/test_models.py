@@ -18,11 +18,12 @@ from toolpath.models import (
     prepare,
     random_rotation_reflection,
 )
-from toolpath.models.__main__ import parameter_count
 from toolpath.models.inputs import Prepare, turning_features
+from toolpath.models.registry import parameter_count
 from toolpath.training import TorchClassifier
 
-CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "conf" / "model" / f"{n}.yaml")) for n in MODEL_NAMES}
+# the composed configs (conf/model/rule.yaml takes its bounds from conf/label)
+CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "params.yaml").models[n], resolve=True) for n in MODEL_NAMES}
 
 
 def windows(n=7, seed=0):

@@ -8,9 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, write_windows
 from toolpath import config
 from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
+from toolpath.reports.readme import main as readme_main
 from toolpath.reports.summary import table3_summary
 from toolpath.reports.tables import categories_table
 from toolpath.stages import report
@@ -28,7 +29,6 @@ def _metrics(accuracy: float) -> dict:
 def partial(tmp_path, monkeypatch, mlflow_store):
     """A smoke profile whose label and train metrics exist and nothing else."""
     config.compose(["+experiment=smoke"], root=REPO, output=tmp_path / "params.yaml")
-    (tmp_path / "conf").symlink_to(REPO / "conf")
     (tmp_path / "README.md").write_text(f"# x\n\n{README_BEGIN}\nold\n{README_END}\n\nafter\n")
     for k, shape in enumerate(SHAPES):
         label = {"class_count": {"1": 60, "2": 20, "3": 15, "4": 5}, "windows": 100,
@@ -62,6 +62,8 @@ def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(
         "; run `dvc repro benchmark`." in text
     assert "`reports/metrics/optimize/gear.json`" in text and "run `dvc repro optimize`" in text
     assert "**Missing sections**: Table 2" in text  # train timing absent
+    assert (partial / "README.md").read_text().count("old") == 1  # the stage never writes README.md
+    assert readme_main([]) == 0  # `make readme` does, on purpose
     readme = (partial / "README.md").read_text()
     assert "old" not in readme and readme.endswith(f"{README_END}\n\nafter\n")
     assert "| gear | 81.2 % / 65.0 % (94.8 % / 94.8 %) | mcrl 81.2 % / 65.0 % | 100.0 % |" in readme
@@ -76,10 +78,12 @@ def test_report_is_byte_identical_on_rerun(partial):
     assert [p.name for p in first if first[p] != again[p]] == []
 
 
-def test_readme_without_markers_is_refused(partial):
+def test_readme_without_markers_is_refused(partial, capsys):
+    report.main([])
     (partial / "README.md").write_text("# no markers\n")
-    with pytest.raises(SystemExit, match="README.md: cannot write the report summary .*markers not found"):
-        report.main([])
+    assert readme_main([]) == 2
+    assert "README.md: cannot write the report summary" in capsys.readouterr().err
+    assert (partial / "README.md").read_text() == "# no markers\n"  # untouched
 
 
 def test_blocks_sections_and_summaries():
@@ -90,13 +94,14 @@ def test_blocks_sections_and_summaries():
     assert "| gear | 50.0 % / 65.0 % (94.8 % / 94.8 %) | mlp 90.0 % / 95.0 % | - |" in summary
     shares = {"1": 0.75, "2": 0.25, "3": 0.0, "4": 0.0}
     table = categories_table({"gear": {"class_count": {"1": 3, "2": 1, "3": 0, "4": 0}, "class_share": shares,
-                                       "windows": 4}})
+                                       "windows": 4}}, (1.9, 3.5, 7.6))
     assert table.rows[0] == ["1 smooth", "<= 1.9", "3 (75.0 %)"] and table.rows[-1] == ["all", "", "4 (100 %)"]
 
 
 def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
+    from toolpath.artifacts import save_checkpoint
     from toolpath.models.rule import LocalCurvatureRule
-    from toolpath.stages._common import save_checkpoint
+    from toolpath.reports.builder import table5_predictions
     from toolpath.training.classifier import to_checkpoint
 
     rng = np.random.default_rng(0)
@@ -105,11 +110,10 @@ def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
     from toolpath.labels import categorize
 
     labels = categorize(local_curvature(windows.astype(np.float64))).astype(np.int8)
-    np.savez(tmp_path / "w.npz", windows=windows, label=labels, split=np.full(40, 2, np.int8),
-             program=np.zeros(40, np.int32))
+    write_windows(tmp_path / "w.npz", windows, labels, np.full(40, 2))
     rule = LocalCurvatureRule().fit(windows)
     save_checkpoint(to_checkpoint(rule), tmp_path / "rule.pt")
-    drawn, predictions = report.table5_predictions(tmp_path / "w.npz", {"rule": tmp_path / "rule.pt"}, seed=3)
+    drawn, predictions = table5_predictions(tmp_path / "w.npz", {"rule": tmp_path / "rule.pt"}, seed=3)
     assert set(drawn) == set(np.unique(labels).tolist())
     assert predictions["rule"] == {c: c for c in drawn}  # the exact rule is right on every window
 

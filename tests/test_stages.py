@@ -6,7 +6,7 @@ import mlflow
 import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, write_windows
 from toolpath import config
 from toolpath.stages import generate, label
 
@@ -81,7 +81,7 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
                if r.info.run_name == "train@maple_leaf-mlp")
     steps = [m.step for m in client.get_metric_history(run.info.run_id, "val/accuracy")]
     assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
-    assert "confusion_test.png" in [a.path for a in client.list_artifacts(run.info.run_id)]
+    assert "confusion_test.json" in [a.path for a in client.list_artifacts(run.info.run_id)]
     _trained(smoke_dir, "maple_leaf", "mlp")  # same seed, byte-identical metrics
     assert (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes() == first
     rule = _trained(smoke_dir, "maple_leaf", "rule")
@@ -96,7 +96,7 @@ def test_train_without_windows_exits_with_a_message(smoke_dir):
     bad = smoke_dir / "data/windows/gear.npz"
     bad.parent.mkdir(parents=True)
     np.savez(bad, windows=np.zeros((3, 50, 2)))
-    with pytest.raises(SystemExit, match="missing label, split, program"):
+    with pytest.raises(SystemExit, match="missing origin, local_curvature, label, program, first_line, split"):
         train.main(["--shape", "gear", "--model", "mlp"])
 
 
@@ -106,8 +106,8 @@ def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
     for shape in ("gear", "pentagram", "maple_leaf"):
         windows = smoke_dir / f"data/windows/{shape}.npz"
         windows.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(windows, windows=np.zeros((2, 50, 2)), label=np.ones(2), split=np.zeros(2), program=np.zeros(2))
-    with pytest.raises(SystemExit, match=r"train/gear/mlp.json: train metrics not found"):
+        write_windows(windows, np.zeros((2, 50, 2)), np.ones(2), np.zeros(2))
+    with pytest.raises(SystemExit, match=r"train/gear/mlp.json: metrics file not found; run `dvc repro train@gear-"):
         generalise.main([])
 
 
@@ -147,9 +147,9 @@ def test_optimize_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
 
 
 def test_optimize_rejects_an_unknown_method(smoke_dir):
-    from toolpath.stages.optimize import plan
+    from toolpath.optimize.runs import plan
 
-    with pytest.raises(SystemExit, match="unknown method"):
+    with pytest.raises(ValueError, match="unknown method"):
         plan([(0, 2, True)], {"methods": ["sandpaper"], "modes": ["bound"], "encodings": ["plain"]})
 
 
@@ -158,9 +158,8 @@ def test_feedrate_stage_names_a_missing_or_malformed_smoothed_file(smoke_dir):
 
     windows = smoke_dir / "data/windows/gear.npz"
     windows.parent.mkdir(parents=True)
-    np.savez(windows, windows=np.zeros((2, 50, 2), np.float32), label=np.ones(2), split=np.full(2, 2),
-             program=np.zeros(2))
-    with pytest.raises(SystemExit, match=r"gear.npz: smoothed-windows file not found; run `dvc repro optimize`"):
+    write_windows(windows, np.zeros((2, 50, 2)), np.ones(2), np.full(2, 2))
+    with pytest.raises(SystemExit, match=r"gear.npz: smoothed-windows file not found; run `dvc repro optimize@gear`"):
         feedrate.main(["--shape", "gear"])
     bad = smoke_dir / "data/smoothed/gear.npz"
     bad.parent.mkdir(parents=True)
@@ -170,7 +169,7 @@ def test_feedrate_stage_names_a_missing_or_malformed_smoothed_file(smoke_dir):
 
 
 def test_feedrate_summary_totals_and_worst_cases():
-    from toolpath.stages.feedrate import summarise
+    from toolpath.feedrate.windows import summarise
 
     rows = [{"mode": "bound", "encoding": "plain", "method": "nacoa", "time_original": t0, "time_smoothed": t1,
              "time_saved_pct": 100 * (1 - t1 / t0), "hausdorff_mm": d, "within_limits": True, "bracketed": True}

@@ -15,12 +15,12 @@ from omegaconf import OmegaConf
 import toolpath.models  # noqa: F401  (before toolpath.training: the two import each other)
 from conftest import REPO
 from toolpath import config
+from toolpath.config import compose_config as compose
+from toolpath.settings import training as model_and_settings
 from toolpath.stages import generate, label
 from toolpath.sweep import overrides, parse_space
 from toolpath.sweep.__main__ import _shares
 from toolpath.sweep.__main__ import main as sweep_main
-from toolpath.sweep.objective import compose
-from toolpath.training.setup import model_and_settings
 
 SMOKE = ["+experiment=smoke"]
 

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
-import platform
 import statistics
 import sys
 import time
@@ -24,17 +22,11 @@ from rich.console import Console
 from rich.table import Table
 
 from toolpath import config
-from toolpath.models.__main__ import parameter_count
-from toolpath.models.registry import MODEL_NAMES, build
-from toolpath.stages._common import write_json
+from toolpath.artifacts import write_json
+from toolpath.models.registry import MODEL_NAMES, build, parameter_count
+from toolpath.training.bench import machine
 
 OUT = Path("reports/bench")
-
-
-def machine() -> dict:
-    return {"python": platform.python_version(), "torch": torch.__version__, "cpu": platform.processor() or
-            platform.machine(), "cores": os.cpu_count(),
-            "threads": torch.get_num_threads()}
 
 
 def bench_models(threads: int, repeats: int, batch: int = 256, seed: int = 0) -> dict:
@@ -114,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         # one core, as the target says: numpy's elementwise work is single-threaded; pin BLAS anyway
         with _single_thread():
             nacoa = bench_optimize(max(3, args.repeats // 6), args.generations)
-        write_json({"machine": machine(), "nacoa": nacoa}, OUT / "optimize.json")
+        write_json({"machine": machine(torch.get_num_threads()), "nacoa": nacoa}, OUT / "optimize.json")
         table = Table(title="NACOA, one 50-point window, N = 1000, one core (median)")
         for column in ("mode / gradient", "generations", "evaluations", "seconds", "fitness before -> after"):
             table.add_column(column, justify="right")
@@ -126,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.only == "optimize":
             return 0
     models = bench_models(args.threads, args.repeats)
-    write_json({"machine": machine(), "models": models}, OUT / "models.json")
+    write_json({"machine": machine(torch.get_num_threads()), "models": models}, OUT / "models.json")
     table = Table(title=f"FP32 forward, batch 256, {args.threads} threads (median of {args.repeats})")
     for column in ("model", "parameters", "ms / 256 windows", "windows / s"):
         table.add_column(column, justify="right")

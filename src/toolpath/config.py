@@ -8,12 +8,15 @@ Stages call :func:`load` and read only the sections they declare in ``dvc.yaml``
 from __future__ import annotations
 
 import sys
-import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from omegaconf import DictConfig, ListConfig, OmegaConf
+
+from toolpath.seeds import seed_for
+
+__all__ = ["compose", "compose_config", "flat", "load", "seed_for"]
 
 PARAMS_FILE = "params.yaml"
 CONF_DIR = "conf"
@@ -29,20 +32,26 @@ def compose(overrides: Sequence[str] = (), root: Path | None = None, output: Pat
     return output
 
 
+def compose_config(root: Path, overrides: Sequence[str] = ()) -> DictConfig:
+    """``root/conf`` composed with ``overrides`` and resolved, in memory (what :func:`compose` writes to
+    ``params.yaml``; the sweep composes each trial's config with it)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(Path(root).resolve() / CONF_DIR), version_base=None):
+        cfg = hydra_compose(config_name="config", overrides=list(overrides))
+    OmegaConf.resolve(cfg)
+    return cfg
+
+
 def load(path: str | Path = PARAMS_FILE) -> DictConfig:
     """The composed parameters; a clear error when ``params.yaml`` is missing."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found: run `python -m toolpath.config` (or `make repro`) first")
     return OmegaConf.load(path)
-
-
-def seed_for(seed: int, *keys: str) -> int:
-    """A 32-bit seed derived from the global ``seed`` and stable names (stage, shape ...)."""
-    import numpy as np
-
-    entropy = [int(seed)] + [zlib.crc32(k.encode()) for k in keys]
-    return int(np.random.SeedSequence(entropy).generate_state(1)[0])
 
 
 def flat(node: Any, prefix: str = "") -> dict[str, Any]:

@@ -3,16 +3,28 @@
 from __future__ import annotations
 
 import warnings
+from enum import IntEnum
 
 import numpy as np
 from sklearn.model_selection import StratifiedGroupKFold
 
-SPLIT_NAMES = ("train", "val", "test")
+
+class Split(IntEnum):
+    """The split a window's program belongs to: the code stored per window in the windows file."""
+
+    TRAIN = 0
+    VAL = 1
+    TEST = 2
+
+    @property
+    def label(self) -> str:
+        """'train', 'val' or 'test' (the keys of metrics files)."""
+        return ("train", "val", "test")[self]
 
 
 def split_by_program(program_ids: np.ndarray, labels: np.ndarray, fractions: tuple[float, float, float],
                      seed: int) -> np.ndarray:
-    """Split code (0 train, 1 val, 2 test) for each window, assigned per whole program.
+    """:class:`Split` code for each window, assigned per whole program.
 
     scikit-learn's ``StratifiedGroupKFold`` deals whole programs (groups) into ``k`` folds whose
     class mixes are as close as the programs allow, where ``k = round(1 / min(val, test))``; the
@@ -37,7 +49,7 @@ def split_by_program(program_ids: np.ndarray, labels: np.ndarray, fractions: tup
         held_out = [held for _, held in folds.split(np.zeros(len(labels)), labels, program_ids)]
     for f, held in enumerate(held_out):
         if f < n_test:
-            code[held] = 2
+            code[held] = Split.TEST
         elif f < n_test + n_val:
-            code[held] = 1
+            code[held] = Split.VAL
     return code

@@ -70,7 +70,8 @@ class Windows:
         return len(self.label)
 
 
-def cut_windows(xy: np.ndarray, lines: np.ndarray, size: int = 50, stride: int = 50) -> Windows:
+def cut_windows(xy: np.ndarray, lines: np.ndarray, size: int = 50, stride: int = 50,
+                bounds: tuple[float, float, float] = TABLE1_BOUNDS) -> Windows:
     """Windows of ``size`` points every ``stride`` points along one run (Algorithm 1, step 1)."""
     count = 0 if len(xy) < size else (len(xy) - size) // stride + 1
     starts = np.arange(count) * stride
@@ -80,7 +81,7 @@ def cut_windows(xy: np.ndarray, lines: np.ndarray, size: int = 50, stride: int =
     local = (pts - origin[:, None, :]).astype(np.float32)
     lc = local_curvature(local.astype(np.float64))
     covered = int(starts[-1] + size) if count else 0
-    return Windows(local, origin, lc, categorize(lc), lines[starts].astype(np.int32) if count else
+    return Windows(local, origin, lc, categorize(lc, tuple(bounds)), lines[starts].astype(np.int32) if count else
                    np.zeros(0, np.int32), unlabelled_points=len(xy) - covered)
 
 
@@ -94,6 +95,8 @@ def concat(parts: list[Windows], size: int) -> Windows:
                    unlabelled_points=sum(p.unlabelled_points for p in parts))
 
 
-def label_program(program: Program, size: int = 50, stride: int = 50) -> Windows:
-    """All labelled windows of one program's cutting motion."""
-    return concat([cut_windows(xy, lines, size, stride) for xy, lines in feed_runs(program)], size)
+def label_program(program: Program, size: int = 50, stride: int = 50,
+                  bounds: tuple[float, float, float] = TABLE1_BOUNDS) -> Windows:
+    """All labelled windows of one program's cutting motion, categorised by ``bounds`` (Table 1's by
+    default; the pipeline passes ``label.bounds``)."""
+    return concat([cut_windows(xy, lines, size, stride, bounds) for xy, lines in feed_runs(program)], size)

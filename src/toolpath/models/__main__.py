@@ -8,13 +8,7 @@ from rich.console import Console
 from rich.table import Table
 
 from toolpath import config
-from toolpath.models.registry import MODEL_NAMES, build
-
-
-def parameter_count(model) -> int:
-    """Trainable parameters of a torch network (0 for the rule)."""
-    params = getattr(model, "parameters", None)
-    return sum(p.numel() for p in params() if p.requires_grad) if params else 0
+from toolpath.models.registry import MODEL_NAMES, build, parameter_count
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -28,18 +28,30 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def parameter_count(model) -> int:
+    """Trainable parameters of a torch network (0 for the rule)."""
+    params = getattr(model, "parameters", None)
+    return sum(p.numel() for p in params() if p.requires_grad) if params else 0
+
+
+def target_class(config: Mapping[str, Any]) -> type:
+    """The class a model config's ``_target_`` names."""
+    target = config.get("_target_")
+    if not isinstance(target, str) or "." not in target:
+        raise ValueError(f"a model config needs a `_target_` naming its class, got {target!r}")
+    module, _, name = target.rpartition(".")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"model `_target_` {target!r} does not name a class: {exc}") from None
+
+
 def build(config: Mapping[str, Any]) -> Any:
     """Instantiate a model from a flat config: ``_target_`` (a dotted class path) and its arguments.
 
     A few lines instead of Hydra's ``instantiate``, so the domain packages do not depend on Hydra;
     every ``conf/model`` file is one flat ``_target_`` with plain arguments (tested)."""
     arguments = _plain(config)
-    target = arguments.pop("_target_", None)
-    if not isinstance(target, str) or "." not in target:
-        raise ValueError(f"a model config needs a `_target_` naming its class, got {target!r}")
-    module, _, name = target.rpartition(".")
-    try:
-        cls = getattr(importlib.import_module(module), name)
-    except (ImportError, AttributeError) as exc:
-        raise ValueError(f"model `_target_` {target!r} does not name a class: {exc}") from None
+    cls = target_class(arguments)
+    arguments.pop("_target_")
     return cls(**arguments)

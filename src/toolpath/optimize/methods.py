@@ -42,7 +42,7 @@ def problem_from(window: np.ndarray, cfg: Mapping, mode: str) -> SmoothingProble
 
 def nacoa_settings(cfg: Mapping, tolerance: float) -> NACOASettings:
     """NACOA's settings from the config; its random term and first population span the tolerance."""
-    values = dict(cfg["nacoa"])
+    values = {k: v for k, v in cfg["nacoa"].items() if k != "_target_"}  # the config's class is NACOASettings
     values.setdefault("perturbation", tolerance)
     return NACOASettings(**values)
 

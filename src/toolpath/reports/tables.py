@@ -14,7 +14,12 @@ from dataclasses import dataclass, field
 from toolpath.reports.paper import LOWER_IS_BETTER, TABLE2, TABLE3, TABLE3_COLUMNS
 
 CATEGORY_NAMES = {1: "smooth", 2: "slightly rough", 3: "rugged", 4: "sharp turning corner"}
-CATEGORY_BOUNDS = {1: "<= 1.9", 2: "1.9 - 3.5", 3: "3.5 - 7.6", 4: ">= 7.6"}
+
+
+def category_bounds(bounds: tuple[float, float, float]) -> dict[int, str]:
+    """The LocalCurvature range of each category for thresholds ``bounds`` (``label.bounds``)."""
+    low, mid, high = bounds
+    return {1: f"<= {low:g}", 2: f"{low:g} - {mid:g}", 3: f"{mid:g} - {high:g}", 4: f">= {high:g}"}
 
 LATEX_SPECIAL = {"&": r"\&", "%": r"\%", "_": r"\_", "#": r"\#", "$": r"\$", "{": r"\{", "}": r"\}"}
 
@@ -83,27 +88,27 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
     return table
 
 
-def categories_table(label_metrics: Mapping[str, Mapping]) -> Table:
-    """Table 1's categories with our window count and share per shape (the paper gives none)."""
+def categories_table(label_metrics: Mapping[str, Mapping], bounds: tuple[float, float, float]) -> Table:
+    """Table 1's categories (thresholds ``bounds``) with our window count and share per shape (the paper
+    gives none)."""
     shapes = list(label_metrics)
     table = Table("Table 1: roughness categories (LocalCurvature, Eq. 3) with our window counts and shares",
                   ["category", "LocalCurvature", *(f"{s} windows (share)" for s in shapes)])
     for category, name in CATEGORY_NAMES.items():
-        cells = [f"{category} {name}", CATEGORY_BOUNDS[category]]
+        cells = [f"{category} {name}", category_bounds(bounds)[category]]
         for shape in shapes:
             m = label_metrics[shape]
             cells.append(f"{m['class_count'][str(category)]} ({100 * m['class_share'][str(category)]:.1f} %)")
         table.add(cells)
     table.add(["all", "", *(f"{label_metrics[s]['windows']} (100 %)" for s in shapes)])
-    table.notes.append("The paper gives the bounds only. Our windows: 50 points, stride 50, every window of "
-                       "every program; category 1 is LocalCurvature <= 1.9, 4 is >= 7.6.")
+    table.notes.append("The paper gives the bounds only (1.9, 3.5, 7.6; ours are `label.bounds`). Our windows: "
+                       "every window of every program.")
     return table
 
 
-def table2(profile: str, ours: Mapping[str, Mapping], paper_profile: Mapping[str, Mapping],
-           runs: Mapping[str, Mapping]) -> Table:
-    """Table 2: Table 2's hyperparameters, the ``paper`` profile's and the report profile's, with the
-    measured training time.  ``ours`` / ``paper_profile``: per shape the ``train.<shape>`` config;
+def table2(profile: str, ours: Mapping[str, Mapping], runs: Mapping[str, Mapping]) -> Table:
+    """Table 2: Table 2's hyperparameters beside the report profile's, with the measured training
+    time.  ``ours``: per shape the ``train.<shape>`` config;
     ``runs``: per shape ``mcrl_epochs``, ``mcrl_seconds`` and ``all_seconds`` (every learned model)."""
     headers = ["shape", "source", "learning rate", "decay rate", "decay steps", "batch size", "epochs",
                "MCRL training time", "all 8 models"]
@@ -113,10 +118,6 @@ def table2(profile: str, ours: Mapping[str, Mapping], paper_profile: Mapping[str
             continue
         lr, rate, steps, batch, epochs, minutes = paper
         table.add([shape, "paper (Table 2)", f"{lr:g}", f"{rate:g}", steps, batch, epochs, f"{minutes} min (GPU)", "-"])
-        pp = paper_profile.get(shape)
-        if pp is not None:
-            table.add([shape, "profile `paper`", f"{pp['lr']:g}", f"{pp['decay_rate']:g}", pp["decay_steps"],
-                       pp["batch_size"], pp["epochs"], "not run here", "-"])
         o, run = ours[shape], runs.get(shape, {})
         epochs = f"{run['mcrl_epochs']} of {o['epochs']}" if "mcrl_epochs" in run else str(o["epochs"])
         mcrl = f"{run['mcrl_seconds'] / 60:.1f} min" if "mcrl_seconds" in run else "-"
@@ -125,5 +126,6 @@ def table2(profile: str, ours: Mapping[str, Mapping], paper_profile: Mapping[str
                    o["decay_steps"], o["batch_size"], epochs, mcrl, every])
     table.notes.append(f"Epochs of profile `{profile}`: run / cap (early stopping on validation loss). Times are "
                        "measured wall-clock on this machine's CPU threads; the paper's are minutes on an RTX 4070 "
-                       "for the epochs it ran.")
+                       "for the epochs it ran. The `paper` profile (`+experiment=paper`) runs Table 2 as printed "
+                       "(tests/test_config.py checks it).")
     return table

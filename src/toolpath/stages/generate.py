@@ -6,13 +6,11 @@ for it, so a file explains itself.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath import config, tracking
-from toolpath.gcode.writer import ProgramSpec, write_program
+from toolpath import config, settings, tracking
+from toolpath.gcode.writer import write_program
 from toolpath.shapes.synth import SHAPES, synthesize
 from toolpath.stages._common import clean_dir, progress, shape_arg
 
@@ -24,7 +22,7 @@ def main(argv: list[str] | None = None) -> None:
     shape_cfg = gen[args.shape]
     roughness = {**gen["roughness"], **shape_cfg["roughness"]}
     rng = np.random.default_rng(config.seed_for(cfg.seed, "generate", args.shape))
-    out = clean_dir(Path(cfg.paths.gcode) / args.shape)
+    out = clean_dir(settings.layout(cfg).programs(args.shape))
     params = {"shape": args.shape, "seed": cfg.seed, **config.flat(gen["cam"], "cam"),
               **config.flat(roughness, "roughness"), **config.flat(shape_cfg, args.shape)}
     with tracking.stage_run(f"generate@{args.shape}", params) as _:
@@ -33,7 +31,7 @@ def main(argv: list[str] | None = None) -> None:
         points = 0
         for k in progress(list(range(shape_cfg["programs"])), f"generate {args.shape}"):
             passes, drawn = synthesize(args.shape, shape_cfg["part"], gen["cam"], roughness, rng)
-            spec = ProgramSpec(**cfg.gcode.write, stay_down=bool(rng.random() < drawn.pop("cam.stay_down")))
+            spec = settings.program_spec(cfg, stay_down=bool(rng.random() < drawn.pop("cam.stay_down")))
             header = f"{args.shape} {k} seed {cfg.seed}: " + ", ".join(
                 f"{key}={value:.6g}" for key, value in drawn.items())
             (out / f"{args.shape}_{k:03d}.nc").write_text(write_program(passes, spec, header), encoding="utf-8")

@@ -2,119 +2,77 @@
 
 Run: python -m toolpath.stages.qat --shape gear
 
-For each model of ``qat.models``: start from the trained FP32 weights (``models/<shape>/<model>.pt``),
-run QAT through PT2E (:mod:`toolpath.training.qat`) on the shape's Table 2 schedule, convert, save
-``<paths.models>/int8/<shape>/<model>.pt2``, reload it and check the outputs are identical, and score
+For each model of ``qat.models``: start from the trained FP32 weights, run QAT through PT2E
+(:mod:`toolpath.training.qat`) on the model's training settings (:func:`toolpath.settings.qat_training`),
+convert, save the INT8 ``.pt2``, reload it and check the outputs are identical, and score
 it on the same test programs as the FP32 model with every Table 3 metric.  A model whose route fails
 is recorded with the reason (``status: failed``) and the stage moves on; no file is written for it.
 
-Writes ``<paths.metrics>/qat/<shape>.json`` (deterministic) and ``<paths.timing>/qat/<shape>.json``.
+Writes the shape's QAT metrics (deterministic) and timing (:class:`toolpath.artifacts.Layout`).
 """
 
 from __future__ import annotations
 
-import json
 import multiprocessing
-import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import torch
-from omegaconf import OmegaConf
 
-from toolpath import config, tracking
+from toolpath import artifacts, config, settings, tracking
 from toolpath.shapes.synth import SHAPES
-from toolpath.stages._common import clean_dir, load_checkpoint, load_windows, progress, shape_arg, write_json
-from toolpath.training import qat
-from toolpath.training.classifier import from_checkpoint
-from toolpath.training.loop import TrainSettings, predict_logits
-from toolpath.training.metrics import classification_metrics
-from toolpath.training.progress import EpochBar
+from toolpath.stages._common import clean_dir, progress, shape_arg
+from toolpath.training.qat import quantize_one
 
 TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
 
-def _fp32_test(metrics_dir: Path, shape: str, model: str) -> dict:
-    path = metrics_dir / "train" / shape / f"{model}.json"
-    if not path.is_file():
-        raise SystemExit(f"{path}: FP32 metrics not found; run `dvc repro train` first")
-    return json.loads(path.read_text())["test"]
-
-
-def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
-                 out: Path, show_epochs: bool = True) -> tuple[dict, float]:
-    """QAT, convert, save, reload-check and score one model; returns (metrics, seconds)."""
-    clf = from_checkpoint(checkpoint)
-    started = time.perf_counter()
-    if show_epochs:
-        with EpochBar(f"qat {name}", settings.epochs) as bar:
-            result = qat.train_qat(clf.network_, *parts["train"], settings, *parts["val"],
-                                   freeze_last=freeze_last, on_epoch=bar.update)
-    else:
-        result = qat.train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last)
-    seconds = time.perf_counter() - started
-    X_test = torch.as_tensor(parts["test"][0])
-    logits = predict_logits(result.model, X_test)
-    size = qat.save(result.model, X_test[:2], out)
-    reloaded = predict_logits(qat.load(out), X_test)
-    proba = torch.softmax(logits, dim=1).numpy()
-    metrics = classification_metrics(parts["test"][1] + 1, proba)
-    return {"status": "ok", "test": metrics, "reload_identical": bool(torch.equal(logits, reloaded)),
-            "file_bytes": size, "tensor_bytes": qat.tensor_bytes(result.model),
-            "fp32_tensor_bytes": qat.tensor_bytes(from_checkpoint(checkpoint).network_),
-            "ops": qat.op_precision(result.model), "epochs": len(result.history)}, seconds
-
-
 def _worker(job: tuple) -> tuple[dict, float, str | None]:
     """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
-    name, fp32_file, parts, settings, freeze_last, out, threads = job
+    name, fp32_file, producer, parts, train_settings, freeze_last, out, threads = job
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
+    checkpoint = artifacts.load_checkpoint(fp32_file, producer)  # a corrupt file stops the stage
     try:
-        entry, seconds = quantize_one(name, load_checkpoint(fp32_file), parts, settings, freeze_last, out,
-                                      show_epochs=False)
+        entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False)
         return entry, seconds, None
     except Exception as exc:  # a route that fails is a result to report, not a crash
         return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
 
 
+def training_parts(data: artifacts.WindowSet, subset: int | None, seed: int) -> dict[str, tuple]:
+    """Every split as (float32 windows, class index 0-3); the training split cut to a seeded ``subset``."""
+    parts = {s.label: (data.part(s)[0].astype(np.float32), artifacts.category_index(data.part(s)[1]))
+             for s in artifacts.Split}
+    if subset is not None and subset < len(parts["train"][0]):
+        keep = np.sort(np.random.default_rng(seed).choice(len(parts["train"][0]), subset, replace=False))
+        parts["train"] = (parts["train"][0][keep], parts["train"][1][keep])
+    return parts
+
+
 def main(argv: list[str] | None = None) -> None:
     args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
-    qcfg = OmegaConf.to_container(cfg.qat, resolve=True)
+    qcfg, layout = settings.plain(cfg.qat), settings.layout(cfg)
     torch.set_num_threads(cfg.train.common.threads)
     torch.use_deterministic_algorithms(True)
-    data = load_windows(Path(cfg.paths.windows) / f"{args.shape}.npz")
-    windows, index = data["windows"].astype(np.float32), (data["label"] - 1).astype(np.int64)
-    parts = {name: (windows[data["split"] == k], index[data["split"] == k])
-             for k, name in enumerate(("train", "val", "test"))}
-    if qcfg["train_windows"] is not None and qcfg["train_windows"] < len(parts["train"][0]):
-        rng = np.random.default_rng(config.seed_for(cfg.seed, "qat", args.shape, "subset"))
-        keep = np.sort(rng.choice(len(parts["train"][0]), qcfg["train_windows"], replace=False))
-        parts["train"] = (parts["train"][0][keep], parts["train"][1][keep])
-    schedule = OmegaConf.to_container(cfg.train[args.shape])
-    models_dir = Path(cfg.paths.models) / args.shape
-    out_dir = clean_dir(Path(cfg.paths.models) / "int8" / args.shape)
-    metrics_dir = Path(cfg.paths.metrics)
+    parts = training_parts(artifacts.load_windows(layout.windows_file(args.shape), args.shape), qcfg["train_windows"],
+                           config.seed_for(cfg.seed, "qat", args.shape, "subset"))
+    out_dir = clean_dir(layout.int8_dir(args.shape))
     report, timing = {"train_windows": int(len(parts["train"][0]))}, {}
-    params = {**config.flat(qcfg, "qat"), **config.flat(schedule, "schedule")}
+    params = {**config.flat(qcfg, "qat"), **config.flat(cfg.train[args.shape], "schedule")}
     with tracking.stage_run(f"qat@{args.shape}", params, shape=args.shape):
         import mlflow
 
         jobs, fp32_tests = [], {}
         for name in qcfg["models"]:
-            fp32_tests[name] = _fp32_test(metrics_dir, args.shape, name)
-            if not (models_dir / f"{name}.pt").is_file():
-                raise SystemExit(f"{models_dir / f'{name}.pt'}: model file not found; run `dvc repro train` first")
-            settings = TrainSettings(lr=schedule["lr"] * qcfg["lr_scale"], decay_rate=schedule["decay_rate"],
-                                     decay_steps=schedule["decay_steps"], batch_size=schedule["batch_size"],
-                                     epochs=qcfg["epochs"], weight_decay=cfg.train.common.weight_decay,
-                                     seed=config.seed_for(cfg.seed, "qat", args.shape, name))
+            producer = f"train@{args.shape}-{name}"
+            fp32_tests[name] = artifacts.read_json(layout.train_metrics(args.shape, name), producer)["test"]
             threads = max(1, cfg.train.common.threads // qcfg["workers"])
-            jobs.append((name, models_dir / f"{name}.pt", parts, settings, qcfg["freeze_last"],
-                         out_dir / f"{name}.pt2", threads))
+            jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,
+                         settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
+                         layout.int8_model(args.shape, name), threads))
         # models are independent: spawned workers, results in submission order (same output for any order)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(_worker, job) for job in jobs]
@@ -131,8 +89,8 @@ def main(argv: list[str] | None = None) -> None:
                 mlflow.log_metric(f"{name}.accuracy_drop_points", entry["accuracy_drop_points"])
             report[name] = entry
             timing[name] = {"qat_seconds": seconds}
-        write_json(report, metrics_dir / "qat" / f"{args.shape}.json")
-        write_json(timing, Path(cfg.paths.timing) / "qat" / f"{args.shape}.json")
+        artifacts.write_json(report, layout.qat_metrics(args.shape))
+        artifacts.write_json(timing, layout.qat_timing(args.shape))
         mlflow.log_dict(report, "qat.json")
 
 

@@ -1,34 +1,30 @@
 """Sequence every sheet by Xie & Zhu's S-shaped algorithm and the baselines.  Run: python -m toolpath.stages.sequence
 
-Reads ``<paths.sheets>/sheet_<n>.json``; writes ``<paths.sequence>/sheet_<n>.nc`` (the S-shaped plan
-with collision avoidance as one continuous-cut program) and ``sheet_<n>.json`` (every method's
-visits and collisions, for the report's figure), ``<paths.metrics>/sequence.json`` (empty travel,
-collisions, optimisation rate against the manual order: deterministic) and
-``<paths.timing>/sequence.json`` (each method's planning time, Table 1's Time column).
+Reads every sheet; writes per sheet the S-shaped plan with collision avoidance as one continuous-cut
+program and every method's visits and collisions (for the report's figure), the metrics (empty travel,
+collisions, optimisation rate against the manual order: deterministic) and the timing (each method's
+planning time, Table 1's Time column), at the paths of :class:`toolpath.artifacts.Layout`.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from toolpath import config, tracking
-from toolpath.gcode.writer import ProgramSpec
+from toolpath import artifacts, config, settings, tracking
+from toolpath.artifacts import write_json
 from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
 from toolpath.sequencing.planner import SheetPlan
 from toolpath.sequencing.score import collisions
-from toolpath.stages._common import clean_dir, progress, write_json
+from toolpath.stages._common import clean_dir, progress
 
 
 def load_sheet(path: Path) -> Sheet:
-    if not path.is_file():
-        raise SystemExit(f"{path}: sheet not found; run `dvc repro sheets` first")
     try:
-        return Sheet.from_dict(json.loads(path.read_text(encoding="utf-8")))
-    except (json.JSONDecodeError, ValueError) as exc:
-        raise SystemExit(f"{path}: not a readable sheet ({exc})") from None
+        return Sheet.from_dict(artifacts.read_json(path, "sheets"))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise artifacts.ArtifactError(path, f"not a readable sheet ({exc})", "sheets") from None
 
 
 def plan_record(plan: SheetPlan, sheet: Sheet) -> dict:
@@ -44,9 +40,10 @@ def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     seq = OmegaConf.to_container(cfg.sequence, resolve=True)
     counts = [int(n) for n in cfg.sheets.counts]
-    sheets = {n: load_sheet(Path(cfg.paths.sheets) / f"sheet_{n}.json") for n in counts}
-    out = clean_dir(Path(cfg.paths.sequence))
-    spec = ProgramSpec(**cfg.gcode.write)
+    layout = settings.layout(cfg)
+    sheets = {n: load_sheet(layout.sheet(n)) for n in counts}
+    out = clean_dir(layout.sequence)
+    spec = settings.program_spec(cfg)
     metrics: dict = {"sheets": {}, "expansion": {}}
     seconds: dict = {}
     with tracking.stage_run("sequence", {"seed": cfg.seed, **config.flat(seq, "sequence")}):
@@ -63,10 +60,10 @@ def main(argv: list[str] | None = None) -> None:
                 for m, o in outcomes.items()}
             seconds[str(n)] = {m: {"seconds": o.seconds, "time_capped": bool(o.facts.get("time_capped", False))}
                                for m, o in outcomes.items()}
-            write_json({m: plan_record(o.plan, sheet) for m, o in outcomes.items()}, out / f"sheet_{n}.json")
+            write_json({m: plan_record(o.plan, sheet) for m, o in outcomes.items()}, layout.sheet_plans(n))
             if "s_shaped" in outcomes:
                 title = f"Xie & Zhu S-shaped sequencing, {n} parts, seed {cfg.seed}, continuous cut"
-                (out / f"sheet_{n}.nc").write_text(
+                layout.sheet_program(n).write_text(
                     sheet_program(outcomes["s_shaped"].plan, sheet.parts, spec, seq["depth"], title), encoding="utf-8")
         study = seq["expansion_study"]
         if study["sheet"] not in sheets:
@@ -75,8 +72,8 @@ def main(argv: list[str] | None = None) -> None:
         for count in study["counts"]:
             plan, _ = s_shaped(sheet, count, seq["algorithm"]["start_up"], True, seq["algorithm"]["max_handling"], tree)
             metrics["expansion"][str(count)] = score(plan, sheet.parts, tree, seq["feed"])
-        write_json(metrics, Path(cfg.paths.metrics) / "sequence.json")
-        write_json(seconds, Path(cfg.paths.timing) / "sequence.json")
+        write_json(metrics, layout.sequence_metrics)
+        write_json(seconds, layout.sequence_timing)
         mlflow.log_metrics({f"sequence/{n}/{m}/{k}": float(v) for n, row in metrics["sheets"].items()
                             for m, scores in row.items() for k, v in scores.items()
                             if isinstance(v, int | float) and not isinstance(v, bool)})

@@ -6,20 +6,20 @@ every part's kind and contour (mm), the data the ``sequence`` stage reads.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath import config, tracking
+from toolpath import config, settings, tracking
+from toolpath.artifacts import write_json
 from toolpath.sequencing.sheets import make_sheet
-from toolpath.stages._common import clean_dir, progress, write_json
+from toolpath.stages._common import clean_dir, progress
 
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     sc = OmegaConf.to_container(cfg.sheets, resolve=True)
-    out = clean_dir(Path(cfg.paths.sheets))
+    layout = settings.layout(cfg)
+    clean_dir(layout.sheets)
     with tracking.stage_run("sheets", {"seed": cfg.seed, **config.flat(sc, "sheets")}):
         import mlflow
 
@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> None:
                                    sc["margin"], sc["simplify"], rng, sc["attempts"])
             except ValueError as exc:
                 raise SystemExit(f"params.yaml (conf/sheets): the sheet of {n} parts: {exc}") from None
-            write_json(sheet.to_dict(), out / f"sheet_{n}.json")
+            write_json(sheet.to_dict(), layout.sheet(int(n)))
             mlflow.log_metrics({f"sheets/{n}/vertices": sum(len(p.ring) for p in sheet.parts),
                                 f"sheets/{n}/contour_mm": sum(p.perimeter for p in sheet.parts)})
 

@@ -1,59 +1,38 @@
-"""One trial: compose its config from ``conf/`` with Hydra, train the model as the train stage would,
+"""One trial: its config composed from ``conf/`` (:func:`toolpath.config.compose_config`), the model trained as
+the train stage would,
 score it on the validation split (the test split is reported, never selected on)."""
 
 from __future__ import annotations
 
-import time
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from omegaconf import DictConfig, OmegaConf
-
-
-def compose(root: Path, overrides: Sequence[str]) -> DictConfig:
-    """``conf/config.yaml`` of ``root`` composed with ``overrides`` and resolved, as ``dvc exp run`` does."""
-    from hydra import compose as hydra_compose
-    from hydra import initialize_config_dir
-    from hydra.core.global_hydra import GlobalHydra
-
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(Path(root).resolve() / "conf"), version_base=None):
-        cfg = hydra_compose(config_name="config", overrides=list(overrides))
-    OmegaConf.resolve(cfg)
-    return cfg
+from omegaconf import DictConfig
 
 
 def load_splits(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Train / val / test windows and labels of a windows file (``data/windows/<shape>.npz``)."""
-    if not path.is_file():
-        shape = path.stem
-        raise FileNotFoundError(f"{path}: windows file not found; run `dvc repro label@{shape}` first")
-    with np.load(path) as data:
-        windows, label, split = data["windows"], data["label"], data["split"]
-    return {name: (windows[split == k], label[split == k]) for k, name in enumerate(("train", "val", "test"))}
+    from toolpath.artifacts import load_windows
+
+    return load_windows(path, path.stem).parts()
 
 
 def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
                     splits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, Any]:
-    """Validation and test metrics (``classification_metrics``), epochs run and seconds of one training."""
+    """Validation and test metrics (``classification_metrics``), epochs run and seconds of one training,
+    exactly as the train stage trains it (:func:`toolpath.training.classifier.fit_and_score`)."""
     import torch
 
-    from toolpath.training.classifier import TorchClassifier
-    from toolpath.training.metrics import classification_metrics
-    from toolpath.training.setup import model_and_settings
+    from toolpath.settings import layout, training
+    from toolpath.training.classifier import fit_and_score
 
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
-    splits = splits or load_splits(Path(cfg.paths.windows) / f"{shape}.npz")
-    network, settings = model_and_settings(cfg, shape, model)
-    start = time.perf_counter()
-    clf = TorchClassifier(network, settings, cfg.train.common.class_weight).fit(*splits["train"], *splits["val"])
-    seconds = time.perf_counter() - start
-    out = {split: classification_metrics(splits[split][1], clf.predict_proba(splits[split][0]))
-           for split in ("val", "test")}
-    return {**out, "epochs_run": len(clf.history_), "train_seconds": seconds}
+    splits = splits or load_splits(layout(cfg).windows_file(shape))
+    network, settings = training(cfg, shape, model)
+    _, metrics, _, seconds = fit_and_score(network, settings, cfg.train.common.class_weight, splits)
+    return {**metrics, "train_seconds": seconds}
 
 
 def metric(result: dict[str, Any], dotted: str) -> float:

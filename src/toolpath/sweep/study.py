@@ -20,7 +20,9 @@ import optuna
 from omegaconf import DictConfig, OmegaConf
 
 from toolpath import tracking
-from toolpath.sweep.objective import compose, load_splits, metric, train_and_score
+from toolpath.config import compose_config as compose
+from toolpath.settings import layout
+from toolpath.sweep.objective import load_splits, metric, train_and_score
 from toolpath.sweep.space import Param, overrides, parse_space, suggest
 
 SWEEP_EXPERIMENT = "cnc-curvature-sweeps"
@@ -170,7 +172,7 @@ def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[
     client = mlflow_client(spec)
     experiment = tracking.experiment_id(client, SWEEP_EXPERIMENT)
     base = compose(spec.root, spec.base_overrides)
-    splits = load_splits(spec.root / str(base.paths.windows) / f"{spec.shape}.npz")
+    splits = load_splits(spec.root / layout(base).windows_file(spec.shape))
     completed = 0
 
     def objective(trial: optuna.Trial) -> float:

@@ -9,11 +9,15 @@ freezing: real INT8 kernels).  :func:`branch_profile` splits an MCRL forward pas
 
 from __future__ import annotations
 
+import os
+import platform
 import statistics
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
+from pathlib import Path
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -110,3 +114,66 @@ def threads(count: int):
             torch.set_num_threads(previous)
 
     return _Threads() if count else nullcontext()
+
+
+def machine(thread_count: int) -> dict:
+    """What the figures were measured on."""
+    return {"python": platform.python_version(), "torch": torch.__version__, "machine": platform.machine(),
+            "cpu": cpu_name(), "cores": os.cpu_count(), "torch_threads": thread_count}
+
+
+def cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def rates(seconds: dict[str, float], batch: int, large: int) -> dict[str, float]:
+    return {"latency_b1_ms": 1e3 * seconds["b1"], "s_per_batch": seconds["batch"],
+            "windows_per_s": batch / seconds["batch"], "windows_per_s_large_batch": large / seconds["large"]}
+
+
+def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Module | None], shapes: list[str],
+                tests: dict, inputs: dict, bcfg: dict, compile_it: bool) -> dict:
+    """Table 4's figures of one model: ``fp32(shape)`` / ``int8(shape)`` give its networks (int8 None
+    when there is no INT8 model); timings on the first shape's networks, then each shape's test split
+    with its own."""
+    runners = {"fp32_eager": fp32(shapes[0])}
+    quantized = int8(shapes[0])
+    if quantized is not None:
+        runners["int8_eager"] = quantized
+    if compile_it:
+        runners["fp32_compiled"] = compiled(runners["fp32_eager"])
+        if quantized is not None:
+            runners["int8_compiled"] = compiled(quantized)
+    seconds = timed(runners, inputs, bcfg["repeats"], bcfg["warmup"])
+    entry: dict = {v: rates(s, bcfg["batch"], bcfg["large_batch"]) for v, s in seconds.items()}
+    split: dict = {}
+    for shape in shapes:  # each shape's own weights, eager
+        variants = {"fp32_eager": fp32(shape)}
+        own = int8(shape)
+        if own is not None:
+            variants["int8_eager"] = own
+        split[shape] = {v: s["test"] for v, s in timed(variants, {"test": tests[shape]}, max(3, bcfg["repeats"] // 3),
+                                                        1).items()}
+        split[shape]["windows"] = len(tests[shape])
+    entry["test_split_s"] = split
+    for mode in ("eager", "compiled"):
+        if f"int8_{mode}" in entry and f"fp32_{mode}" in entry:
+            entry[f"int8_speedup_{mode}"] = entry[f"fp32_{mode}"]["s_per_batch"] / entry[f"int8_{mode}"]["s_per_batch"]
+    return entry
+
+
+def bench_rule(rule, shapes: list[str], tests: dict, inputs: dict, bcfg: dict) -> dict:
+    """The exact rule's figures, the floor of Table 4."""
+    def run(x: torch.Tensor) -> np.ndarray:
+        return rule.predict(x.numpy())
+
+    seconds = timed({"rule": run}, inputs, bcfg["repeats"], bcfg["warmup"])["rule"]
+    entry = rates(seconds, bcfg["batch"], bcfg["large_batch"])
+    entry["test_split_s"] = {s: timed({"rule": run}, {"test": tests[s]}, 3, 1)["rule"]["test"] for s in shapes}
+    return entry

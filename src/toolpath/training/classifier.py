@@ -16,7 +16,7 @@ import torch
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.utils.class_weight import compute_class_weight
 
-from toolpath.models.registry import build
+from toolpath.models.registry import build, target_class
 from toolpath.models.rule import CLASSES, as_windows
 from toolpath.training.loop import TrainSettings, fit_network, predict_logits
 
@@ -94,3 +94,26 @@ def from_checkpoint(checkpoint: Mapping[str, Any]) -> Any:
     clf.classes_ = CLASSES.copy()
     clf.history_ = []
     return clf
+
+
+def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class_weight: str | None,
+                  parts: Mapping[str, tuple[np.ndarray, np.ndarray]], on_epoch=None) -> tuple[Any, dict, list, float]:
+    """Train one model on ``parts['train']`` (validation: ``parts['val']``) and score it on the
+    validation and test splits: (classifier, metrics, per-epoch history, seconds).  The exact rule (an
+    estimator that is no torch module) is fitted as it is; it learns nothing.  The train stage and
+    every sweep trial call this, so a trial trains what the stage would."""
+    import time
+
+    from toolpath.training.metrics import classification_metrics
+
+    started = time.perf_counter()
+    if issubclass(target_class(network), torch.nn.Module):
+        clf = TorchClassifier(network, settings, class_weight).fit(*parts["train"], *parts["val"], on_epoch=on_epoch)
+        history = clf.history_
+    else:
+        clf, history = build(network).fit(parts["train"][0]), []
+    seconds = time.perf_counter() - started
+    metrics = {split: classification_metrics(parts[split][1], clf.predict_proba(parts[split][0]))
+               for split in ("val", "test")}
+    metrics["epochs_run"] = len(history)
+    return clf, metrics, history, seconds

@@ -16,6 +16,7 @@ normalisers, the attention's products), per model, for the report.
 from __future__ import annotations
 
 import os
+import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,7 +26,11 @@ import numpy as np
 import torch
 from torch import nn
 
-from toolpath.training.loop import EpochRecord, TrainSettings, fit_network
+from toolpath.models.rule import CLASSES as CATEGORIES
+from toolpath.training.classifier import from_checkpoint
+from toolpath.training.loop import EpochRecord, TrainSettings, fit_network, predict_logits
+from toolpath.training.metrics import classification_metrics
+from toolpath.training.progress import EpochBar
 
 # compute ops we classify; the rest (reshapes, activations, pooling, quant/dequant) carry no weights
 COMPUTE_OPS = ("linear", "conv1d", "conv2d", "matmul", "bmm", "mm", "addmm", "einsum", "rnn_tanh", "lstm",
@@ -162,3 +167,28 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
                            for a in node.args[:2] if isinstance(a, torch.fx.Node))
         counts["int8" if from_dequant else "float"][name] += 1
     return {k: dict(sorted(v.items())) for k, v in counts.items()}
+
+
+def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
+                 out: Path, show_epochs: bool = True) -> tuple[dict, float]:
+    """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
+    ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT)."""
+    clf = from_checkpoint(checkpoint)
+    started = time.perf_counter()
+    if show_epochs:
+        with EpochBar(f"qat {name}", settings.epochs) as bar:
+            result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
+                               on_epoch=bar.update)
+    else:
+        result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last)
+    seconds = time.perf_counter() - started
+    X_test = torch.as_tensor(parts["test"][0])
+    logits = predict_logits(result.model, X_test)
+    size = save(result.model, X_test[:2], out)
+    reloaded = predict_logits(load(out), X_test)
+    proba = torch.softmax(logits, dim=1).numpy()
+    metrics = classification_metrics(CATEGORIES[parts["test"][1]], proba)
+    return {"status": "ok", "test": metrics, "reload_identical": bool(torch.equal(logits, reloaded)),
+            "file_bytes": size, "tensor_bytes": tensor_bytes(result.model),
+            "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
+            "ops": op_precision(result.model), "epochs": len(result.history)}, seconds

@@ -1,0 +1,331 @@
+"""The files stages pass to one another: one typed description each (path, schema, load, save).
+
+Every path derives from ``conf/paths`` through :class:`Layout`; nothing else in the code spells a path
+below those roots, a split code or a label encoding.  ``dvc.yaml`` declares the same files as DVC deps
+and outs (``tests/test_artifacts.py`` checks that every path here is declared there).  A file that is
+missing or malformed stops the stage with one line naming the file and the stage that makes it.
+
+Encodings:
+
+* :class:`Split`: the split code stored per window (0 train, 1 val, 2 test);
+* labels are Table 1 categories 1-4 everywhere outside a network (:data:`CATEGORIES`); only a
+  network's output index is 0-3 (:func:`category_index`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from toolpath.labels.split import Split
+
+__all__ = ["CATEGORIES", "ArtifactError", "Layout", "SmoothedSet", "Split", "WindowSet", "category_index",
+           "load_arrays", "load_checkpoint", "load_smoothed", "load_windows", "read_json", "read_rows",
+           "save_checkpoint", "save_smoothed", "save_windows", "write_json", "write_rows"]
+
+
+CATEGORIES = np.array([1, 2, 3, 4])  # Table 1's roughness categories, the labels of the windows file
+
+
+def category_index(labels: np.ndarray) -> np.ndarray:
+    """Categories 1-4 as a network's class index 0-3."""
+    return np.searchsorted(CATEGORIES, np.asarray(labels)).astype(np.int64)
+
+
+class ArtifactError(SystemExit):
+    """A file between stages is missing or malformed: the message names it and the stage to rerun."""
+
+    def __init__(self, path: Path, problem: str, producer: str) -> None:
+        super().__init__(f"{path}: {problem}; run `dvc repro {producer}`")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where every artefact lives, from the roots of ``conf/paths``."""
+
+    gcode: Path
+    windows: Path
+    metrics: Path
+    models: Path
+    plots: Path
+    timing: Path
+    corpus: Path
+    smoothed: Path
+    report: Path
+    sheets: Path
+    sequence: Path
+    corner: Path
+
+    @classmethod
+    def from_config(cls, paths: Mapping[str, Any]) -> Layout:
+        return cls(**{f.name: Path(str(paths[f.name])) for f in fields(cls)})
+
+    # ---- per shape -------------------------------------------------------------------------
+    def programs(self, shape: str) -> Path:
+        return self.gcode / shape
+
+    def windows_file(self, shape: str) -> Path:
+        return self.windows / f"{shape}.npz"
+
+    def label_metrics(self, shape: str) -> Path:
+        return self.metrics / "label" / f"{shape}.json"
+
+    def checkpoint(self, shape: str, model: str) -> Path:
+        """An FP32 classifier; ``shape`` 'all' is the one trained on every shape (generalise)."""
+        return self.models / shape / f"{model}.pt"
+
+    def int8_dir(self, shape: str) -> Path:
+        return self.models / "int8" / shape
+
+    def int8_model(self, shape: str, model: str) -> Path:
+        return self.int8_dir(shape) / f"{model}.pt2"
+
+    def train_metrics(self, shape: str, model: str) -> Path:
+        return self.metrics / "train" / shape / f"{model}.json"
+
+    def train_curves(self, shape: str, model: str) -> Path:
+        return self.plots / "train" / shape / f"{model}.csv"
+
+    def train_timing(self, shape: str, model: str) -> Path:
+        return self.timing / "train" / shape / f"{model}.json"
+
+    def qat_metrics(self, shape: str) -> Path:
+        return self.metrics / "qat" / f"{shape}.json"
+
+    def qat_timing(self, shape: str) -> Path:
+        return self.timing / "qat" / f"{shape}.json"
+
+    def smoothed_file(self, shape: str) -> Path:
+        return self.smoothed / f"{shape}.npz"
+
+    def optimize_rows(self, shape: str) -> Path:
+        return self.metrics / "optimize" / f"{shape}.csv"
+
+    def optimize_summary(self, shape: str) -> Path:
+        return self.metrics / "optimize" / f"{shape}.json"
+
+    def optimize_timing(self, shape: str) -> Path:
+        return self.timing / "optimize" / f"{shape}.json"
+
+    def optimize_curves(self, shape: str) -> Path:
+        return self.plots / "optimize" / f"{shape}.csv"
+
+    def feedrate_rows(self, shape: str) -> Path:
+        return self.metrics / "feedrate" / f"{shape}.csv"
+
+    def feedrate_summary(self, shape: str) -> Path:
+        return self.metrics / "feedrate" / f"{shape}.json"
+
+    # ---- whole pipeline --------------------------------------------------------------------
+    @property
+    def generalise_metrics(self) -> Path:
+        return self.metrics / "generalise.json"
+
+    @property
+    def inference_metrics(self) -> Path:
+        return self.metrics / "inference.json"
+
+    @property
+    def sequence_metrics(self) -> Path:
+        return self.metrics / "sequence.json"
+
+    @property
+    def sequence_timing(self) -> Path:
+        return self.timing / "sequence.json"
+
+    def sheet(self, count: int) -> Path:
+        return self.sheets / f"sheet_{count}.json"
+
+    def sheet_plans(self, count: int) -> Path:
+        return self.sequence / f"sheet_{count}.json"
+
+    def sheet_program(self, count: int) -> Path:
+        return self.sequence / f"sheet_{count}.nc"
+
+    @property
+    def corner_metrics(self) -> Path:
+        return self.metrics / "corner.json"
+
+    @property
+    def corner_rows(self) -> Path:
+        return self.metrics / "corner_corners.csv"
+
+    @property
+    def corner_timing(self) -> Path:
+        return self.timing / "corner.json"
+
+    @property
+    def corner_curves(self) -> Path:
+        return self.plots / "corner" / "training.csv"
+
+    @property
+    def surrogates(self) -> Path:
+        return self.corner / "surrogates.pt"
+
+    @property
+    def corner_profiles(self) -> Path:
+        return self.corner / "profiles.npz"
+
+
+# ---- arrays --------------------------------------------------------------------------------------
+def load_arrays(path: Path, required: Iterable[str], what: str, producer: str) -> dict[str, np.ndarray]:
+    """Every array of an ``.npz`` file; missing, unreadable or incomplete files stop with one line."""
+    import zipfile
+
+    if not path.is_file():
+        raise ArtifactError(path, f"{what} file not found", producer)
+    try:  # our own handle: np.load leaves its own open when the archive is corrupt
+        with path.open("rb") as fh, np.load(fh) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise ArtifactError(path, f"not a readable {what} file ({exc})", producer) from None
+    missing = [k for k in required if k not in arrays]
+    if missing:
+        raise ArtifactError(path, f"malformed {what} file, missing {', '.join(missing)}", producer)
+    return arrays
+
+
+@dataclass(frozen=True)
+class WindowSet:
+    """One shape's labelled windows (the label stage's output).
+
+    ``windows`` (N, 50, 2) float32 relative to each window's first point, ``origin`` (N, 2), ``label``
+    (Table 1 category 1-4), ``split`` (:class:`Split` codes), ``program`` (index into
+    ``program_files``), ``first_line`` (source line of the window's first point), ``local_curvature``.
+    """
+
+    windows: np.ndarray
+    origin: np.ndarray
+    local_curvature: np.ndarray
+    label: np.ndarray
+    program: np.ndarray
+    first_line: np.ndarray
+    split: np.ndarray
+    program_files: np.ndarray
+
+    def part(self, split: Split) -> tuple[np.ndarray, np.ndarray]:
+        """(windows, labels) of one split."""
+        keep = self.split == split
+        return self.windows[keep], self.label[keep]
+
+    def parts(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """(windows, labels) of every split, keyed 'train', 'val', 'test'."""
+        return {s.label: self.part(s) for s in Split}
+
+
+def save_windows(windows: WindowSet, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **{f.name: getattr(windows, f.name) for f in fields(WindowSet)})
+
+
+def load_windows(path: Path, shape: str | None = None) -> WindowSet:
+    """A windows file, checked against :class:`WindowSet`'s schema."""
+    producer = f"label@{shape}" if shape else "label"
+    arrays = load_arrays(path, [f.name for f in fields(WindowSet)], "windows", producer)
+    w = arrays["windows"]
+    n = len(w)
+    if w.ndim != 3 or w.shape[2] != 2 or any(len(arrays[k]) != n for k in ("label", "split", "program")):
+        raise ArtifactError(path, f"malformed windows file, windows {w.shape} do not match labels / split", producer)
+    if n and (not np.isin(arrays["label"], CATEGORIES).all() or not np.isin(arrays["split"], list(Split)).all()):
+        raise ArtifactError(path, "malformed windows file, labels outside 1-4 or split codes outside 0-2", producer)
+    return WindowSet(**{f.name: arrays[f.name] for f in fields(WindowSet)})
+
+
+@dataclass(frozen=True)
+class SmoothedSet:
+    """Every smoothed window of the optimize stage: points (R, n, 2) float64 and, per row, the window
+    index into the shape's windows file, the method, the fidelity mode and the encoding."""
+
+    points: np.ndarray
+    window: np.ndarray
+    method: np.ndarray
+    mode: np.ndarray
+    encoding: np.ndarray
+
+
+def save_smoothed(smoothed: SmoothedSet, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **{f.name: getattr(smoothed, f.name) for f in fields(SmoothedSet)})
+
+
+def load_smoothed(path: Path, shape: str | None = None) -> SmoothedSet:
+    producer = f"optimize@{shape}" if shape else "optimize"
+    arrays = load_arrays(path, [f.name for f in fields(SmoothedSet)], "smoothed-windows", producer)
+    return SmoothedSet(**{f.name: arrays[f.name] for f in fields(SmoothedSet)})
+
+
+# ---- checkpoints ---------------------------------------------------------------------------------
+def save_checkpoint(checkpoint: dict, path: Path) -> None:
+    import torch
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save(checkpoint, path)
+
+
+def load_checkpoint(path: Path, producer: str = "train") -> dict:
+    """A classifier checkpoint (weights only: a checkpoint cannot run code when loaded)."""
+    import pickle
+
+    import torch
+
+    if not path.is_file():
+        raise ArtifactError(path, "model file not found", producer)
+    try:
+        checkpoint = torch.load(path, weights_only=True)
+    except (RuntimeError, EOFError, OSError, ValueError, pickle.UnpicklingError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        raise ArtifactError(path, f"not a readable model file ({reason})", producer) from None
+    if not isinstance(checkpoint, dict) or "network" not in checkpoint:
+        raise ArtifactError(path, "malformed model file, no network config", producer)
+    return checkpoint
+
+
+# ---- JSON and CSV --------------------------------------------------------------------------------
+def _finite(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
+def write_json(data: Mapping, path: Path) -> None:
+    """Deterministic JSON (sorted keys, fixed indentation, NaN/inf as null)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(_finite(dict(data)), indent=2, sort_keys=True) + "\n", encoding="utf-8")
+
+
+def read_json(path: Path, producer: str) -> dict:
+    if not path.is_file():
+        raise ArtifactError(path, "metrics file not found", producer)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ArtifactError(path, f"not a readable JSON file ({exc})", producer) from None
+
+
+def write_rows(rows: Iterable[Mapping], columns: Iterable[str], path: Path) -> None:
+    """One CSV row per mapping, ``columns`` in order; floats to 6 significant digits."""
+    columns = list(columns)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(columns)
+        for r in rows:
+            writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in columns])
+
+
+def read_rows(path: Path, producer: str) -> list[dict[str, str]]:
+    if not path.is_file():
+        raise ArtifactError(path, "table not found", producer)
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))

@@ -1,0 +1,318 @@
+"""The report's sections: Tables 1-6 and Figures 6-11 of Li et al. beside ours, then Xie & Zhu's and
+the NURBS corner paper's results.  Reads only DVC outputs (at the paths of :class:`Layout`) and the
+composed parameters; each table and figure is written as it is built.  A section whose inputs are
+missing is kept as "missing", naming the files and the stage that makes them."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from omegaconf import OmegaConf
+
+from toolpath.artifacts import (
+    CATEGORIES,
+    Layout,
+    Split,
+    load_checkpoint,
+    load_smoothed,
+    load_windows,
+)
+from toolpath.reports import classify_figures as cf
+from toolpath.reports import feedrate as fr
+from toolpath.reports import sequencing as seqr
+from toolpath.reports import smoothing as sm
+from toolpath.reports import summary as report_summary
+from toolpath.reports.document import Section
+from toolpath.reports.paper import TABLE5_CORRECT
+from toolpath.reports.speed import table4
+from toolpath.reports.tables import Table, categories_table, table2, table3
+from toolpath.seeds import seed_for
+
+
+def read_json(path: Path) -> dict:
+    import json
+
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except ValueError as exc:
+        raise SystemExit(f"{path}: not valid JSON ({exc}); `dvc repro` the stage that writes it") from None
+
+
+class Missing(Exception):
+    """Inputs a section needs that are not there."""
+
+    def __init__(self, paths: list[Path], stage: str) -> None:
+        super().__init__(", ".join(map(str, paths)))
+        self.paths, self.stage = paths, stage
+
+
+def require(paths: list[Path], stage: str) -> None:
+    absent = [p for p in paths if not p.exists()]
+    if absent:
+        raise Missing(absent, stage)
+
+
+def read_csv(path: Path) -> list[dict]:
+    with path.open(newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def read_columns(path: Path) -> dict[str, np.ndarray]:
+    rows = read_csv(path)
+    return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
+
+
+class Report:
+    """Builds the sections, writing each table and figure as it goes."""
+
+    def __init__(self, cfg, layout: Layout, out: Path) -> None:
+        self.cfg, self.layout, self.out = cfg, layout, out
+        self.shapes = list(cfg.shapes)
+        self.learned = [m for m in cfg.train.models if m != "rule"]
+        self.written: list[Path] = []
+        self.summaries: dict[str, str] = {}
+
+    def table(self, table: Table | list[Table], stem: str) -> str:
+        tables = table if isinstance(table, list) else [table]
+        base = self.out / "tables" / stem
+        base.parent.mkdir(parents=True, exist_ok=True)
+        md = "\n".join(t.markdown() for t in tables)
+        base.with_suffix(".md").write_text(md, encoding="utf-8")
+        base.with_suffix(".tex").write_text("\n".join(t.latex() for t in tables), encoding="utf-8")
+        self.written += [base.with_suffix(".md"), base.with_suffix(".tex")]
+        return md
+
+    def figure(self, fig, stem: str, caption: str) -> str:
+        self.written += cf.save(fig, self.out / "figures" / stem)
+        return f"![{caption}](figures/{stem}.png)\n\n*{caption}* ([PDF](figures/{stem}.pdf))\n"
+
+    # ---- classification -------------------------------------------------------------------
+    def categories(self) -> str:
+        files = {s: self.layout.label_metrics(s) for s in self.shapes}
+        require(list(files.values()), "label")
+        return self.table(categories_table({s: read_json(p) for s, p in files.items()}, tuple(self.cfg.label.bounds)),
+                          "table1_categories")
+
+    def train_metrics(self) -> dict[str, dict[str, dict]]:
+        files = {(s, m): self.layout.train_metrics(s, m) for s in self.shapes for m in self.cfg.train.models}
+        require(list(files.values()), "train")
+        return {s: {m: read_json(files[(s, m)]) for m in self.cfg.train.models} for s in self.shapes}
+
+    def hyperparameters(self) -> str:
+        metrics = self.train_metrics()
+        timing = {(s, m): self.layout.train_timing(s, m) for s in self.shapes for m in self.learned}
+        require(list(timing.values()), "train")
+        runs = {}
+        for s in self.shapes:
+            seconds = {m: read_json(timing[(s, m)])["train_seconds"] for m in self.learned}
+            runs[s] = {"all_seconds": sum(seconds.values())}
+            if "mcrl" in seconds:
+                runs[s] |= {"mcrl_seconds": seconds["mcrl"], "mcrl_epochs": metrics[s]["mcrl"]["epochs_run"]}
+        ours = {s: OmegaConf.to_container(self.cfg.train[s]) for s in self.shapes}
+        return self.table(table2(self.cfg.profile, ours, runs), "table2_hyperparameters")
+
+    def performance(self) -> str:
+        metrics = self.train_metrics()
+        tables = [table3(s, {m: metrics[s][m]["test"] for m in metrics[s]}) for s in self.shapes]
+        self.summaries["table3"] = report_summary.table3_summary(metrics)
+        return self.table(tables, "table3_metrics")
+
+    def curves(self) -> str:
+        files = {(s, m): self.layout.train_curves(s, m) for s in self.shapes for m in self.learned}
+        require(list(files.values()), "train")
+        curves = {s: {m: read_columns(files[(s, m)]) for m in self.learned} for s in self.shapes}
+        return (self.figure(cf.curves_figure(curves, "val_accuracy", "validation accuracy"), "fig6_accuracy",
+                            "Fig. 6: validation accuracy per epoch, every model, MCRL red")
+                + "\n" + self.figure(cf.curves_figure(curves, "val_loss", "validation loss (Eq. 29)"), "fig7_loss",
+                                     "Fig. 7: validation loss per epoch, every model, MCRL red"))
+
+    def confusion(self) -> str:
+        model = self.cfg.report.confusion_model
+        metrics = self.train_metrics()
+        confusions = {s: np.array(metrics[s][model]["test"]["confusion"]) for s in self.shapes}
+        return self.figure(cf.confusion_panels(confusions, model), "fig12_confusion",
+                           f"Ours: {model} confusion matrices on each shape's test programs (rows: true category)")
+
+    def cross_shape(self) -> str:
+        path = self.layout.generalise_metrics
+        require([path], "generalise")
+        data = read_json(path)
+        best = data.get("best_baseline", "-")
+        parts = [self.figure(cf.cross_shape_figure(data["cross_shape"]), "fig13_cross_shape",
+                             f"Ours: {self.cfg.generalise.model} and the best baseline by validation accuracy "
+                             f"({best}), each trained on one shape and tested on each")]
+        real = data.get("real_gcode", {})
+        if "metrics" in real:
+            parts.append(f"MCRL trained on all three shapes, on the real G-code of the corpus (labelled by the rule): "
+                         f"accuracy {real['metrics']['accuracy']:.3f}, macro F1 {real['metrics']['f1']:.3f}, "
+                         f"majority-class accuracy {real['majority_accuracy']:.3f}.\n")
+        elif "skipped" in real:
+            parts.append(f"Real G-code: {real['skipped']}.\n")
+        return "\n".join(parts)
+
+    def inference(self) -> str:
+        path = self.layout.inference_metrics
+        require([path], "benchmark")
+        return self.table(table4(read_json(path), self.shapes), "table4_inference")
+
+    def classification(self) -> str:
+        shape = self.cfg.report.table5_shape
+        windows_path = self.layout.windows_file(shape)
+        models = {m: self.layout.checkpoint(shape, m) for m in self.cfg.train.models}
+        require([windows_path, *models.values()], "train")
+        drawn, predictions = table5_predictions(windows_path, models, seed_for(self.cfg.seed, "report"))
+        table = Table(f"Table 5: one seeded random test window per category ({shape}), each model's prediction",
+                      ["model", *(f"category {c}" for c in drawn), "correct (paper)"])
+        for model, predicted in predictions.items():
+            right = sum(predicted[c] == c for c in drawn)
+            table.add([model, *("correct" if predicted[c] == c else f"wrong ({predicted[c]})" for c in drawn),
+                       f"{right} / {len(drawn)} ({TABLE5_CORRECT[model]} / 4)" if model in TABLE5_CORRECT
+                       else f"{right} / {len(drawn)} (-)"])
+        table.notes.append("The paper: MCRL right on all four, every other model wrong on one (which is not stated). "
+                           "Four windows are an anecdote; Table 3 is the measurement.")
+        return self.table(table, "table5_classification") + "\n" + self.figure(
+            cf.classification_grid(drawn, predictions), "table5_classification",
+            "Table 5 as the paper draws it: green where the model predicts the window's category, red where not")
+
+    # ---- smoothing ------------------------------------------------------------------------
+    def optimize_inputs(self) -> dict[str, dict]:
+        lay = self.layout
+        files = {s: {"metrics": lay.optimize_summary(s), "rows": lay.optimize_rows(s), "timing": lay.optimize_timing(s),
+                     "smoothed": lay.smoothed_file(s), "windows": lay.windows_file(s)} for s in self.shapes}
+        require([p for f in files.values() for p in f.values()], "optimize")
+        out = {}
+        for s, f in files.items():
+            smoothed = load_smoothed(f["smoothed"], s)
+            out[s] = {"metrics": read_json(f["metrics"]), "rows": read_csv(f["rows"]),
+                      "timing": read_json(f["timing"]), "smoothed": vars(smoothed),
+                      "windows": load_windows(f["windows"], s).windows.astype(np.float64)}
+        return out
+
+    def optimisers(self) -> str:
+        data = self.optimize_inputs()
+        metrics = {s: d["metrics"] for s, d in data.items()}
+        self.summaries["table6"] = report_summary.table6_summary(metrics)
+        return (self.table(sm.table6(metrics, {s: d["timing"] for s, d in data.items()}),
+                           "table6_optimisers") + "\n" + self.table(sm.reduction_table(metrics), "table6_reduction"))
+
+    def smoothing_figures(self) -> str:
+        data = self.optimize_inputs()
+        rcfg, seed = self.cfg.report, seed_for(self.cfg.seed, "report", "figures")
+        mode, parts, cases, drawn = rcfg.figures_mode, [], {}, []
+        for s, d in data.items():
+            picked = sm.pick_window(d["rows"], rcfg.figure_category, True, seed)
+            if picked is not None:
+                head, category = picked
+                drawn.append(f"{s} window {head}, category {category}")
+                methods = sorted({r["method"] for r in d["rows"] if int(r["window"]) == head})
+                cases[s] = (d["windows"][head], sm.window_results(d["smoothed"], head, methods, mode))
+        if cases:
+            parts.append(self.figure(sm.methods_figure(cases, mode), "fig8_methods",
+                                     "Fig. 8: one drawn window per shape (" + "; ".join(drawn)
+                                     + "), the original (black) and every method"))
+        for number, (s, d) in enumerate(data.items(), start=9):
+            picked = sm.pick_window(d["rows"], rcfg.figure_category, False, seed)
+            if picked is None:
+                parts.append(f"Fig. {number}: no smoothed {s} window in the sample.\n")
+                continue
+            window, category = picked
+            stats = d["metrics"]["methods"][mode]["plain"]
+            results = sm.window_results(d["smoothed"], window, sm.PAPER_METHODS, mode)
+            mean = {m: stats[m]["mean_reduction_pct"] for m in results}
+            parts.append(self.figure(sm.before_after_figure(s, d["windows"][window], results, mean, mode),
+                                     f"fig{number}_{s}", f"Fig. {number}: mean filter, Bezier and NACOA on {s} "
+                                     f"window {window} (category {category}), curvature reduction in each title"))
+        parts.append(self.figure(sm.tradeoff_figure({s: d["rows"] for s, d in data.items()}),
+                                 "fig14_reduction_vs_deviation",
+                                 "Ours: curvature reduction against the two-sided deviation from the original path, "
+                                 "per method (mean: large marker), the trade-off the paper does not report"))
+        return "\n".join(parts)
+
+    # ---- sequencing (Xie & Zhu) -------------------------------------------------------------
+    def sequencing(self) -> str:
+        seq = self.cfg.sequence
+        metrics_path, timing_path = self.layout.sequence_metrics, self.layout.sequence_timing
+        sheet_path = self.layout.sheet(seq.figure_sheet)
+        plans_path = self.layout.sheet_plans(seq.figure_sheet)
+        require([metrics_path, timing_path, sheet_path, plans_path], "sequence")
+        metrics, plans = read_json(metrics_path), read_json(plans_path)
+        parts = [self.table(seqr.sequencing_table(metrics, read_json(timing_path)), "table7_sequencing"),
+                 self.table(seqr.baselines_table(metrics), "table8_sequencing_baselines"),
+                 self.table(seqr.expansion_table(metrics, seq.expansion_study.sheet), "table9_expansion")]
+        shown = {title: plans[m] for title, m in (("without collision avoidance", "s_shaped_no_avoidance"),
+                                                  ("with collision avoidance", "s_shaped")) if m in plans}
+        if shown:
+            parts.append(self.figure(seqr.sheet_figure(read_json(sheet_path), shown), "fig15_sequence",
+                                     f"Xie & Zhu, Fig. 10's style: the S-shaped plan of the {seq.figure_sheet}-part "
+                                     "sheet, entry points red, exit points yellow, transitions blue, collisions red"))
+        return "\n".join(parts)
+
+    # ---- corner smoothing and feedrate (the NURBS corner paper) --------------------------------------------
+    def corners_and_feedrate(self) -> str:
+        lay = self.layout
+        corner, timing, profiles, curves = lay.corner_metrics, lay.corner_timing, lay.corner_profiles, lay.corner_curves
+        require([lay.corner_rows, corner, timing, profiles, curves], "corner")
+        windows = {s: lay.feedrate_summary(s) for s in self.shapes}
+        require(list(windows.values()), "feedrate")
+        metrics, per_shape = read_json(corner), {s: read_json(p) for s, p in windows.items()}
+        cases, methods = list(metrics["cases"]), list(self.cfg.corner.methods)
+        with np.load(profiles) as data:
+            arrays = {k: data[k] for k in data.files}
+        rows = read_csv(lay.corner_rows)
+        parts = [self.table(fr.cases_table(metrics), "table10_corner_cases"),
+                 self.table([fr.corners_table(rows, case, methods) for case in cases], "table13_corners"),
+                 self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
+                 self.table(fr.pso_study_table(metrics), "table14_pso_size"),
+                 self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimize.modes],
+                            "table12_time_saved"),
+                 self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
+                             "NURBS corner paper, Figs. 11-14: each case path smoothed by every method (top) and "
+                             "its planned feed (bottom)"),
+                 self.figure(fr.training_figure(read_columns(curves)), "fig17_surrogate_training",
+                             "NURBS corner paper, Figs. 8-9: training loss of FDLS and SDLS")]
+        return "\n".join(parts)
+
+    def sections(self) -> list[Section]:
+        plan: list[tuple[str, Callable[[], str]]] = [
+            ("Table 1: roughness categories", self.categories),
+            ("Table 2: hyperparameters and training time", self.hyperparameters),
+            ("Table 3: classification metrics", self.performance),
+            ("Figures 6-7: training curves", self.curves),
+            ("Ours: confusion matrices", self.confusion),
+            ("Ours: generalisation across shapes and to real G-code", self.cross_shape),
+            ("Table 4: inference time, FP32 and INT8", self.inference),
+            ("Table 5: classification of random windows", self.classification),
+            ("Table 6: optimisers and curvature reduction", self.optimisers),
+            ("Figures 8-11 and the reduction / deviation trade-off", self.smoothing_figures),
+            ("Xie & Zhu: sequencing many parts on one sheet", self.sequencing),
+            ("NURBS corner paper: corner smoothing, feedrate and machining time", self.corners_and_feedrate),
+        ]
+        result = []
+        for title, build in plan:
+            try:
+                result.append(Section(title, build()))
+            except Missing as missing:
+                result.append(Section(title, missing=[str(p) for p in missing.paths], stage=missing.stage))
+        return result
+
+
+def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -> tuple[dict, dict]:
+    """One seeded random test window per category, and each model's predicted category for it."""
+    from toolpath.training.classifier import from_checkpoint
+
+    data = load_windows(windows_path)
+    rng = np.random.default_rng(seed)
+    drawn = {}
+    for category in CATEGORIES:
+        pool = np.flatnonzero((data.label == category) & (data.split == Split.TEST))
+        if len(pool):
+            drawn[int(category)] = data.windows[rng.choice(pool)]
+    batch = np.stack(list(drawn.values()))
+    predictions = {}
+    for model, path in models.items():
+        predicted = from_checkpoint(load_checkpoint(path)).predict(batch)
+        predictions[model] = {c: int(p) for c, p in zip(drawn, predicted, strict=True)}
+    return drawn, predictions

@@ -1,0 +1,108 @@
+"""The typed contract between stages: every path of the layout is a declared DVC dep or out, the split
+and label encodings, and one clear line for every missing or corrupt file."""
+
+import re
+
+import numpy as np
+import pytest
+import yaml
+from omegaconf import OmegaConf
+
+from conftest import REPO, write_windows
+from toolpath import artifacts
+from toolpath.artifacts import ArtifactError, Layout, Split
+
+PARAMS = OmegaConf.load(REPO / "params.yaml")
+
+
+def declared_paths() -> set[str]:
+    """Every dep and out of dvc.yaml with ${paths.*}, ${item.*} and matrices expanded."""
+    stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
+    values = {"shapes": list(PARAMS.shapes), "train.models": list(PARAMS.train.models)}
+    found = set()
+    for stage in stages.values():
+        matrix = stage.get("matrix", {})
+        items = [{}]
+        for key, spec in matrix.items():
+            choices = values[spec.strip("${}")] if isinstance(spec, str) else spec
+            items = [{**i, key: c} for i in items for c in choices]
+        entries = [*stage.get("deps", []), *stage.get("outs", []), *stage.get("metrics", []), *stage.get("plots", [])]
+        for entry in entries:
+            text = entry if isinstance(entry, str) else next(iter(entry))
+            for item in items:
+                path = re.sub(r"\$\{item\.(\w+)\}", lambda m, i=item: str(i[m.group(1)]), text)
+                path = re.sub(r"\$\{([\w.]+)\}", lambda m: str(OmegaConf.select(PARAMS, m.group(1))), path)
+                found.add(path)
+    return found
+
+
+def covered(path: str, declared: set[str]) -> bool:
+    """``path`` is declared itself or lies inside a declared folder."""
+    return any(path == d or path.startswith(d.rstrip("/") + "/") for d in declared)
+
+
+def test_every_layout_path_is_a_declared_dvc_dep_or_out():
+    layout, declared = Layout.from_config(PARAMS.paths), declared_paths()
+    shape, model = PARAMS.shapes[0], "mcrl"
+    per_shape = ("windows_file", "label_metrics", "int8_dir", "qat_metrics", "qat_timing", "smoothed_file",
+                 "optimize_rows", "optimize_summary", "optimize_timing", "optimize_curves", "feedrate_rows",
+                 "feedrate_summary", "programs")
+    paths = [getattr(layout, name)(shape) for name in per_shape]
+    paths += [layout.checkpoint(shape, model), layout.int8_model(shape, model), layout.train_metrics(shape, model),
+              layout.train_curves(shape, model), layout.train_timing(shape, model), layout.checkpoint("all", model)]
+    paths += [layout.generalise_metrics, layout.inference_metrics, layout.sequence_metrics, layout.sequence_timing,
+              layout.sheet(PARAMS.sheets.counts[0]), layout.sheet_plans(PARAMS.sheets.counts[0]),
+              layout.sheet_program(PARAMS.sheets.counts[0]), layout.corner_metrics, layout.corner_rows,
+              layout.corner_timing, layout.corner_curves, layout.surrogates, layout.corner_profiles]
+    undeclared = [str(p) for p in paths if not covered(str(p), declared)]
+    assert undeclared == []
+
+
+def test_split_codes_and_label_encoding():
+    assert [int(s) for s in Split] == [0, 1, 2] and [s.label for s in Split] == ["train", "val", "test"]
+    assert artifacts.category_index(np.array([1, 4, 2])).tolist() == [0, 3, 1]
+
+
+def test_windows_round_trip_and_parts(tmp_path):
+    path = write_windows(tmp_path / "gear.npz", np.arange(3 * 50 * 2).reshape(3, 50, 2), [1, 2, 4], [0, 2, 2])
+    data = artifacts.load_windows(path, "gear")
+    X, y = data.part(Split.TEST)
+    assert y.tolist() == [2, 4] and X.shape == (2, 50, 2)
+    assert set(data.parts()) == {"train", "val", "test"} and len(data.parts()["val"][1]) == 0
+
+
+@pytest.mark.parametrize("content, problem", [
+    (None, "windows file not found"),
+    (b"PK\x03\x04 truncated", "not a readable windows file"),
+    (b"", "not a readable windows file"),
+])
+def test_a_missing_or_corrupt_windows_file_names_the_file_and_the_stage(tmp_path, content, problem):
+    path = tmp_path / "gear.npz"
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(ArtifactError, match=rf"gear.npz: {problem}.*; run `dvc repro label@gear`"):
+        artifacts.load_windows(path, "gear")
+
+
+def test_labels_or_splits_out_of_range_are_refused(tmp_path):
+    path = write_windows(tmp_path / "gear.npz", np.zeros((2, 50, 2)), [1, 7], [0, 2])
+    with pytest.raises(ArtifactError, match="labels outside 1-4"):
+        artifacts.load_windows(path, "gear")
+
+
+@pytest.mark.parametrize("content", [b"garbage", b"", b"PK\x03\x04"])
+def test_a_corrupt_checkpoint_names_the_file_and_the_stage(tmp_path, content):
+    path = tmp_path / "mcrl.pt"
+    path.write_bytes(content)
+    with pytest.raises(ArtifactError, match=r"mcrl.pt: not a readable model file .*; run `dvc repro train@gear-mcrl`"):
+        artifacts.load_checkpoint(path, "train@gear-mcrl")
+
+
+def test_json_and_rows(tmp_path):
+    artifacts.write_json({"b": float("nan"), "a": [1.0, float("inf")]}, tmp_path / "m.json")
+    assert (tmp_path / "m.json").read_text() == '{\n  "a": [\n    1.0,\n    null\n  ],\n  "b": null\n}\n'
+    (tmp_path / "bad.json").write_text("{")
+    with pytest.raises(ArtifactError, match="bad.json: not a readable JSON file"):
+        artifacts.read_json(tmp_path / "bad.json", "corner")
+    artifacts.write_rows([{"x": 1 / 3, "y": "a"}], ("x", "y"), tmp_path / "r.csv")
+    assert artifacts.read_rows(tmp_path / "r.csv", "corner") == [{"x": "0.333333", "y": "a"}]
