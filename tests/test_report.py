@@ -69,6 +69,20 @@ def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(
     assert "| gear | 81.2 % / 65.0 % (94.8 % / 94.8 %) | mcrl 81.2 % / 65.0 % | 100.0 % |" in readme
 
 
+def test_the_parent_run_carries_the_headline_figures_and_the_best_model(partial):
+    import mlflow
+
+    from toolpath import tracking
+
+    report.main([])
+    parent = mlflow.MlflowClient(tracking.tracking_uri()).search_runs(
+        [tracking.experiment_id(tracking.client())], filter_string="tags.pipeline_role = 'parent'")[0]
+    assert parent.data.metrics["table3.gear.mcrl.test_accuracy"] == pytest.approx(0.8123)
+    assert parent.data.metrics["table3.pentagram.mlp.test_accuracy"] == pytest.approx(0.7)
+    assert parent.data.tags["best_model.gear"] == "mcrl"  # 0.81 against the MLP's 0.70; the rule is no model
+    assert not any(k.startswith("smoothing.") for k in parent.data.metrics)  # absent inputs are left out
+
+
 def test_report_is_byte_identical_on_rerun(partial):
     report.main([])
     first = {p: p.read_bytes() for p in (partial / "reports").rglob("*") if p.is_file()}

@@ -220,7 +220,7 @@ def test_sheet_program_reads_back_as_one_continuous_feed_path():
 
 
 def test_report_tables_set_ours_beside_the_paper():
-    from toolpath.reports import sequencing as seqr
+    from toolpath.reports import sequencing as sequencing_report
 
     metrics = {"sheets": {"58": {
         "manual": {"empty_travel_mm": 10000.0, "collisions": 3, "optimisation_rate_pct": 0.0},
@@ -228,9 +228,9 @@ def test_report_tables_set_ours_beside_the_paper():
         "s_shaped_no_avoidance": {"empty_travel_mm": 8500.0, "collisions": 2, "optimisation_rate_pct": 15.0}}},
         "expansion": {"2": {"empty_travel_mm": 8000.0, "collisions": 0}}}
     timing = {"58": {"s_shaped": {"seconds": 1.5}, "s_shaped_no_avoidance": {"seconds": 1.0}}}
-    table1 = seqr.sequencing_table(metrics, timing).markdown()
+    table1 = sequencing_report.sequencing_table(metrics, timing).markdown()
     assert "| 58 | yes | 0 (1) | 10000 (10650) | 8000 (8021) | 1.50 (544.00) | 20.0 (24.0) | -4.0 |" in table1
     assert "| 58 | no | 2 (2) | 10000 (10650) | 8500 (8134) | 1.00 (604.00) | 15.0 (23.6) | -8.6 |" in table1
-    baselines = seqr.baselines_table(metrics).markdown()
+    baselines = sequencing_report.baselines_table(metrics).markdown()
     assert "| s_shaped | **8000 / 0** |" in baselines and "| manual | 10000 / 3 |" in baselines
-    assert "| 2 | 8000 | 0 |" in seqr.expansion_table(metrics, 58).markdown()
+    assert "| 2 | 8000 | 0 |" in sequencing_report.expansion_table(metrics, 58).markdown()

@@ -40,7 +40,7 @@ def test_generate_then_label_writes_outs_metrics_and_mlflow_runs(smoke_dir):
     parents = {r.data.tags.get("mlflow.parentRunId") for r in runs if r.info.run_name.startswith(("gen", "lab"))}
     assert len(parents) == 1 and None not in parents  # every stage run nests under one pipeline run
     child = next(r for r in runs if r.info.run_name == "label@pentagram")
-    assert child.data.metrics["label/windows"] == n and child.info.status == "FINISHED"
+    assert child.data.metrics["label.windows"] == n and child.info.status == "FINISHED"
 
 
 def test_label_without_gcode_exits_with_a_message(smoke_dir):
@@ -79,7 +79,7 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     client = mlflow.MlflowClient()
     run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
                if r.info.run_name == "train@maple_leaf-mlp")
-    steps = [m.step for m in client.get_metric_history(run.info.run_id, "val/accuracy")]
+    steps = [m.step for m in client.get_metric_history(run.info.run_id, "epoch.val.accuracy")]
     assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
     assert "confusion_test.json" in [a.path for a in client.list_artifacts(run.info.run_id)]
     _trained(smoke_dir, "maple_leaf", "mlp")  # same seed, byte-identical metrics

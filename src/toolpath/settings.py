@@ -94,10 +94,10 @@ def all_shapes_training(cfg: DictConfig) -> tuple[dict[str, Any], dict[str, Any]
     ``generalise.schedule`` with the same ``train.common`` keys as every other run."""
     from toolpath.models.registry import split_schedule
 
-    gen = cfg.generalise
-    network, _ = split_schedule(plain(cfg.models[gen.model]))
-    settings = {**plain(gen.schedule), **_common_training(cfg),
-                "seed": config.seed_for(cfg.seed, "generalise", gen.model)}
+    across = cfg.generalise
+    network, _ = split_schedule(plain(cfg.models[across.model]))
+    settings = {**plain(across.schedule), **_common_training(cfg),
+                "seed": config.seed_for(cfg.seed, "generalise", across.model)}
     return network, settings
 
 

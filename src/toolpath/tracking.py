@@ -127,6 +127,19 @@ def _parent_run_id(client: Any, experiment_id: str, key: str) -> str:
     return run.info.run_id
 
 
+def log_to_parent(metrics: Mapping[str, float], tags: Mapping[str, str]) -> str:
+    """Put the pipeline's headline figures and tags on its parent run (so `mlflow ui` answers "how did
+    this run do" on the parent's page); returns the parent's id."""
+    store = client()
+    experiment = experiment_id(store)
+    parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
+    for key, value in metrics.items():
+        with_retry(lambda k=key, v=value: store.log_metric(parent, k, float(v)))
+    for key, value in tags.items():
+        with_retry(lambda k=key, v=value: store.set_tag(parent, k, v))
+    return parent
+
+
 @contextlib.contextmanager
 def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) -> Iterator[Any]:
     """Open the child run of ``stage`` (e.g. ``label@gear``) under the pipeline's parent run.

@@ -20,11 +20,7 @@ from toolpath.artifacts import (
     load_smoothed,
     load_windows,
 )
-from toolpath.reports import classify_figures as cf
-from toolpath.reports import feedrate as fr
-from toolpath.reports import sequencing as seqr
-from toolpath.reports import smoothing as sm
-from toolpath.reports import summary as report_summary
+from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, summary
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import table4
@@ -86,7 +82,7 @@ class Report:
         return md
 
     def figure(self, fig, stem: str, caption: str) -> str:
-        self.written += cf.save(fig, self.out / "figures" / stem)
+        self.written += classify_figures.save(fig, self.out / "figures" / stem)
         return f"![{caption}](figures/{stem}.png)\n\n*{caption}* ([PDF](figures/{stem}.pdf))\n"
 
     # ---- classification -------------------------------------------------------------------
@@ -117,23 +113,23 @@ class Report:
     def performance(self) -> str:
         metrics = self.train_metrics()
         tables = [table3(s, {m: metrics[s][m]["test"] for m in metrics[s]}) for s in self.shapes]
-        self.summaries["table3"] = report_summary.table3_summary(metrics)
+        self.summaries["table3"] = summary.table3_summary(metrics)
         return self.table(tables, "table3_metrics")
 
     def curves(self) -> str:
         files = {(s, m): self.layout.train_curves(s, m) for s in self.shapes for m in self.learned}
         require(list(files.values()), "train")
         curves = {s: {m: read_columns(files[(s, m)]) for m in self.learned} for s in self.shapes}
-        return (self.figure(cf.curves_figure(curves, "val_accuracy", "validation accuracy"), "fig6_accuracy",
-                            "Fig. 6: validation accuracy per epoch, every model, MCRL red")
-                + "\n" + self.figure(cf.curves_figure(curves, "val_loss", "validation loss (Eq. 29)"), "fig7_loss",
-                                     "Fig. 7: validation loss per epoch, every model, MCRL red"))
+        accuracy = classify_figures.curves_figure(curves, "val_accuracy", "validation accuracy")
+        loss = classify_figures.curves_figure(curves, "val_loss", "validation loss (Eq. 29)")
+        return (self.figure(accuracy, "fig6_accuracy", "Fig. 6: validation accuracy per epoch, every model, MCRL red")
+                + "\n" + self.figure(loss, "fig7_loss", "Fig. 7: validation loss per epoch, every model, MCRL red"))
 
     def confusion(self) -> str:
         model = self.cfg.report.confusion_model
         metrics = self.train_metrics()
         confusions = {s: np.array(metrics[s][model]["test"]["confusion"]) for s in self.shapes}
-        return self.figure(cf.confusion_panels(confusions, model), "fig12_confusion",
+        return self.figure(classify_figures.confusion_panels(confusions, model), "fig12_confusion",
                            f"Ours: {model} confusion matrices on each shape's test programs (rows: true category)")
 
     def cross_shape(self) -> str:
@@ -141,7 +137,7 @@ class Report:
         require([path], "generalise")
         data = read_json(path)
         best = data.get("best_baseline", "-")
-        parts = [self.figure(cf.cross_shape_figure(data["cross_shape"]), "fig13_cross_shape",
+        parts = [self.figure(classify_figures.cross_shape_figure(data["cross_shape"]), "fig13_cross_shape",
                              f"Ours: {self.cfg.generalise.model} and the best baseline by validation accuracy "
                              f"({best}), each trained on one shape and tested on each")]
         real = data.get("real_gcode", {})
@@ -174,7 +170,7 @@ class Report:
         table.notes.append("The paper: MCRL right on all four, every other model wrong on one (which is not stated). "
                            "Four windows are an anecdote; Table 3 is the measurement.")
         return self.table(table, "table5_classification") + "\n" + self.figure(
-            cf.classification_grid(drawn, predictions), "table5_classification",
+            classify_figures.classification_grid(drawn, predictions), "table5_classification",
             "Table 5 as the paper draws it: green where the model predicts the window's category, red where not")
 
     # ---- smoothing ------------------------------------------------------------------------
@@ -194,38 +190,39 @@ class Report:
     def optimisers(self) -> str:
         data = self.optimize_inputs()
         metrics = {s: d["metrics"] for s, d in data.items()}
-        self.summaries["table6"] = report_summary.table6_summary(metrics)
-        return (self.table(sm.table6(metrics, {s: d["timing"] for s, d in data.items()}),
-                           "table6_optimisers") + "\n" + self.table(sm.reduction_table(metrics), "table6_reduction"))
+        self.summaries["table6"] = summary.table6_summary(metrics)
+        table6 = smoothing.table6(metrics, {s: d["timing"] for s, d in data.items()})
+        return (self.table(table6, "table6_optimisers") + "\n"
+                + self.table(smoothing.reduction_table(metrics), "table6_reduction"))
 
     def smoothing_figures(self) -> str:
         data = self.optimize_inputs()
         rcfg, seed = self.cfg.report, seed_for(self.cfg.seed, "report", "figures")
         mode, parts, cases, drawn = rcfg.figures_mode, [], {}, []
         for s, d in data.items():
-            picked = sm.pick_window(d["rows"], rcfg.figure_category, True, seed)
+            picked = smoothing.pick_window(d["rows"], rcfg.figure_category, True, seed)
             if picked is not None:
                 head, category = picked
                 drawn.append(f"{s} window {head}, category {category}")
                 methods = sorted({r["method"] for r in d["rows"] if int(r["window"]) == head})
-                cases[s] = (d["windows"][head], sm.window_results(d["smoothed"], head, methods, mode))
+                cases[s] = (d["windows"][head], smoothing.window_results(d["smoothed"], head, methods, mode))
         if cases:
-            parts.append(self.figure(sm.methods_figure(cases, mode), "fig8_methods",
+            parts.append(self.figure(smoothing.methods_figure(cases, mode), "fig8_methods",
                                      "Fig. 8: one drawn window per shape (" + "; ".join(drawn)
                                      + "), the original (black) and every method"))
         for number, (s, d) in enumerate(data.items(), start=9):
-            picked = sm.pick_window(d["rows"], rcfg.figure_category, False, seed)
+            picked = smoothing.pick_window(d["rows"], rcfg.figure_category, False, seed)
             if picked is None:
                 parts.append(f"Fig. {number}: no smoothed {s} window in the sample.\n")
                 continue
             window, category = picked
             stats = d["metrics"]["methods"][mode]["plain"]
-            results = sm.window_results(d["smoothed"], window, sm.PAPER_METHODS, mode)
+            results = smoothing.window_results(d["smoothed"], window, smoothing.PAPER_METHODS, mode)
             mean = {m: stats[m]["mean_reduction_pct"] for m in results}
-            parts.append(self.figure(sm.before_after_figure(s, d["windows"][window], results, mean, mode),
+            parts.append(self.figure(smoothing.before_after_figure(s, d["windows"][window], results, mean, mode),
                                      f"fig{number}_{s}", f"Fig. {number}: mean filter, Bezier and NACOA on {s} "
                                      f"window {window} (category {category}), curvature reduction in each title"))
-        parts.append(self.figure(sm.tradeoff_figure({s: d["rows"] for s, d in data.items()}),
+        parts.append(self.figure(smoothing.tradeoff_figure({s: d["rows"] for s, d in data.items()}),
                                  "fig14_reduction_vs_deviation",
                                  "Ours: curvature reduction against the two-sided deviation from the original path, "
                                  "per method (mean: large marker), the trade-off the paper does not report"))
@@ -239,13 +236,13 @@ class Report:
         plans_path = self.layout.sheet_plans(seq.figure_sheet)
         require([metrics_path, timing_path, sheet_path, plans_path], "sequence")
         metrics, plans = read_json(metrics_path), read_json(plans_path)
-        parts = [self.table(seqr.sequencing_table(metrics, read_json(timing_path)), "table7_sequencing"),
-                 self.table(seqr.baselines_table(metrics), "table8_sequencing_baselines"),
-                 self.table(seqr.expansion_table(metrics, seq.expansion_study.sheet), "table9_expansion")]
+        parts = [self.table(sequencing.sequencing_table(metrics, read_json(timing_path)), "table7_sequencing"),
+                 self.table(sequencing.baselines_table(metrics), "table8_sequencing_baselines"),
+                 self.table(sequencing.expansion_table(metrics, seq.expansion_study.sheet), "table9_expansion")]
         shown = {title: plans[m] for title, m in (("without collision avoidance", "s_shaped_no_avoidance"),
                                                   ("with collision avoidance", "s_shaped")) if m in plans}
         if shown:
-            parts.append(self.figure(seqr.sheet_figure(read_json(sheet_path), shown), "fig15_sequence",
+            parts.append(self.figure(sequencing.sheet_figure(read_json(sheet_path), shown), "fig15_sequence",
                                      f"Xie & Zhu, Fig. 10's style: the S-shaped plan of the {seq.figure_sheet}-part "
                                      "sheet, entry points red, exit points yellow, transitions blue, collisions red"))
         return "\n".join(parts)
@@ -262,16 +259,16 @@ class Report:
         with np.load(profiles) as data:
             arrays = {k: data[k] for k in data.files}
         rows = read_csv(lay.corner_rows)
-        parts = [self.table(fr.cases_table(metrics), "table10_corner_cases"),
-                 self.table([fr.corners_table(rows, case, methods) for case in cases], "table13_corners"),
-                 self.table(fr.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
-                 self.table(fr.pso_study_table(metrics), "table14_pso_size"),
-                 self.table([fr.windows_table(per_shape, mode) for mode in self.cfg.optimize.modes],
+        parts = [self.table(corner_report.cases_table(metrics), "table10_corner_cases"),
+                 self.table([corner_report.corners_table(rows, case, methods) for case in cases], "table13_corners"),
+                 self.table(corner_report.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),
+                 self.table(corner_report.pso_study_table(metrics), "table14_pso_size"),
+                 self.table([corner_report.windows_table(per_shape, mode) for mode in self.cfg.optimize.modes],
                             "table12_time_saved"),
-                 self.figure(fr.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
+                 self.figure(corner_report.profiles_figure(arrays, cases, methods), "fig16_corner_profiles",
                              "NURBS corner paper, Figs. 11-14: each case path smoothed by every method (top) and "
                              "its planned feed (bottom)"),
-                 self.figure(fr.training_figure(read_columns(curves)), "fig17_surrogate_training",
+                 self.figure(corner_report.training_figure(read_columns(curves)), "fig17_surrogate_training",
                              "NURBS corner paper, Figs. 8-9: training loss of FDLS and SDLS")]
         return "\n".join(parts)
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-README_BEGIN = "<!-- report:begin (written by `dvc repro report`; edits here are overwritten) -->"
+README_BEGIN = ("<!-- report:begin (written by `make readme` from reports/readme_block.md; edits here are "
+                "overwritten) -->")
 README_END = "<!-- report:end -->"
 
 # Every interpretation the pipeline makes of the paper, with where it is configured or explained.

@@ -25,7 +25,8 @@ def main(argv: list[str] | None = None) -> int:
         args.readme.write_text(replace_block(args.readme.read_text(encoding="utf-8"), block, str(args.readme)),
                                encoding="utf-8")
     except FileNotFoundError as exc:
-        print(f"{exc.filename}: not found (run `make repro` first for the block)", file=sys.stderr)
+        hint = " (the report stage writes it: run `make repro`)" if Path(exc.filename) == args.block else ""
+        print(f"{exc.filename}: not found{hint}", file=sys.stderr)
         return 2
     except (OSError, ValueError) as exc:
         print(f"{args.readme}: cannot write the report summary ({exc})", file=sys.stderr)

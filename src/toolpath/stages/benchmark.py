@@ -41,9 +41,9 @@ def main(argv: list[str] | None = None) -> None:
         return model
 
     tests = {s: torch.as_tensor(artifacts.load_windows(layout.windows_file(s), s).part(Split.TEST)[0]) for s in shapes}
-    gen = torch.Generator().manual_seed(config.seed_for(cfg.seed, "benchmark"))
+    draws = torch.Generator().manual_seed(config.seed_for(cfg.seed, "benchmark"))
     pool = tests[shapes[0]]
-    pick = torch.randint(0, len(pool), (bcfg["large_batch"],), generator=gen)
+    pick = torch.randint(0, len(pool), (bcfg["large_batch"],), generator=draws)
     inputs = {"b1": pool[pick[:1]], "batch": pool[pick[: bcfg["batch"]]], "large": pool[pick]}
     torch.use_deterministic_algorithms(False)  # inference only; allow the fastest kernels
     setup = {k: bcfg[k] for k in ("repeats", "warmup", "batch", "large_batch")}

@@ -44,19 +44,19 @@ def corpus_windows(folder: Path, options: ReaderOptions, size: int, stride: int,
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
-    gen, common, layout = cfg.generalise, cfg.train.common, settings.layout(cfg)
+    across, common, layout = cfg.generalise, cfg.train.common, settings.layout(cfg)
     torch.set_num_threads(common.threads)
     torch.use_deterministic_algorithms(True)
     data = {s: artifacts.load_windows(layout.windows_file(s), s) for s in cfg.shapes}
     tests = {s: d.part(Split.TEST) for s, d in data.items()}
     val_acc = {b: float(np.mean([_val_accuracy(layout.train_metrics(s, b), s, b) for s in cfg.shapes]))
-               for b in gen.baselines}
+               for b in across.baselines}
     best = best_by_validation(val_acc)
-    with tracking.stage_run("generalise", config.flat(gen, "generalise")):
+    with tracking.stage_run("generalise", config.flat(across, "generalise")):
         import mlflow
 
         result = {"best_baseline": best, "baseline_val_accuracy": val_acc, "cross_shape": {}}
-        for name in (gen.model, best):
+        for name in (across.model, best):
             clfs = {s: from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(s, name), f"train@{s}-{name}"))
                     for s in cfg.shapes}
             result["cross_shape"][name] = cross_shape_matrix(clfs, tests)
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> None:
                  for split in (Split.TRAIN, Split.VAL)}
         network, train_settings = settings.all_shapes_training(cfg)
         clf = TorchClassifier(network, train_settings, common.class_weight).fit(*stack["train"], *stack["val"])
-        artifacts.save_checkpoint(to_checkpoint(clf), layout.checkpoint("all", gen.model))
+        artifacts.save_checkpoint(to_checkpoint(clf), layout.checkpoint("all", across.model))
         result["all_shapes"] = {s: classification_metrics(y, clf.predict_proba(X)) for s, (X, y) in tests.items()}
         summary, real = corpus_windows(layout.corpus, settings.reader_options(cfg), cfg.label.window,
                                        cfg.label.stride, settings.bounds(cfg))

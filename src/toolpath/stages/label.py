@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> None:
             program_files=np.array([p.name for p in files])), layout.windows_file(args.shape))
         metrics = label_summary(windows, program, split, len(files))
         artifacts.write_json(metrics, layout.label_metrics(args.shape))
-        mlflow.log_metrics({f"label/{k}": v for k, v in config.flat(metrics).items() if isinstance(v, int | float)})
+        mlflow.log_metrics({f"label.{k}": v for k, v in config.flat(metrics).items() if isinstance(v, int | float)})
 
 
 if __name__ == "__main__":

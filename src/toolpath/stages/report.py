@@ -12,9 +12,10 @@ import subprocess
 from pathlib import Path
 
 from toolpath import config, settings, tracking
-from toolpath.reports import summary as report_summary
+from toolpath.reports import summary
 from toolpath.reports.builder import Report
 from toolpath.reports.document import report_markdown
+from toolpath.reports.headline import headline
 
 BLOCK_FILE = "readme_block.md"
 
@@ -36,12 +37,14 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run("report", config.flat(cfg.report, "report")):
         import mlflow
 
-        report = Report(cfg, settings.layout(cfg), out)
+        report = Report(cfg, settings.layout(cfg), out)  # builds every table and figure
         sections = report.sections()
         commit, clean = source_state()
         (out / "report.md").write_text(report_markdown(sections, cfg.profile, commit, clean), encoding="utf-8")
-        (out / BLOCK_FILE).write_text(report_summary.readme_block(report.summaries, cfg.profile, commit, out) + "\n",
+        (out / BLOCK_FILE).write_text(summary.readme_block(report.summaries, cfg.profile, commit, out) + "\n",
                                       encoding="utf-8")
+        layout = settings.layout(cfg)
+        tracking.log_to_parent(*headline(layout, cfg.shapes, cfg.train.models))
         missing = [s.title for s in sections if s.missing]
         mlflow.log_metrics({"sections": len(sections), "missing_sections": len(missing)})
         mlflow.log_artifact(str(out / "report.md"))

@@ -74,10 +74,10 @@ def main(argv: list[str] | None = None) -> None:
             metrics["expansion"][str(count)] = score(plan, sheet.parts, tree, seq["feed"])
         write_json(metrics, layout.sequence_metrics)
         write_json(seconds, layout.sequence_timing)
-        mlflow.log_metrics({f"sequence/{n}/{m}/{k}": float(v) for n, row in metrics["sheets"].items()
+        mlflow.log_metrics({f"sequence.{n}.{m}.{k}": float(v) for n, row in metrics["sheets"].items()
                             for m, scores in row.items() for k, v in scores.items()
                             if isinstance(v, int | float) and not isinstance(v, bool)})
-        mlflow.log_metrics({f"sequence/expansion/{c}/{k}": float(v) for c, s in metrics["expansion"].items()
+        mlflow.log_metrics({f"sequence.expansion.{c}.{k}": float(v) for c, s in metrics["expansion"].items()
                             for k, v in s.items()})
         mlflow.log_artifacts(str(out), artifact_path="sequence")
 

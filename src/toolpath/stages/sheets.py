@@ -31,8 +31,8 @@ def main(argv: list[str] | None = None) -> None:
             except ValueError as exc:
                 raise SystemExit(f"params.yaml (conf/sheets): the sheet of {n} parts: {exc}") from None
             write_json(sheet.to_dict(), layout.sheet(int(n)))
-            mlflow.log_metrics({f"sheets/{n}/vertices": sum(len(p.ring) for p in sheet.parts),
-                                f"sheets/{n}/contour_mm": sum(p.perimeter for p in sheet.parts)})
+            mlflow.log_metrics({f"sheets.{n}.vertices": sum(len(p.ring) for p in sheet.parts),
+                                f"sheets.{n}.contour_mm": sum(p.perimeter for p in sheet.parts)})
 
 
 if __name__ == "__main__":

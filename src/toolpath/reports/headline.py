@@ -1,0 +1,59 @@
+"""The pipeline's headline figures, for the MLflow parent run: how did this run do, on one page.
+
+Read from the same DVC outputs as the report; a figure whose file is absent (a smoke profile, a stage
+not run) is left out.  Keys use the one metric vocabulary of the project: dotted paths, as DVC
+flattens its metrics files (``table3.gear.mcrl.test_accuracy``).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from pathlib import Path
+
+from toolpath.artifacts import Layout
+
+PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
+
+
+def _load(path: Path) -> dict | None:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:
+    """(metrics, tags): Table 3 test accuracy per shape and model, the INT8 accuracy drop, the mean
+    curvature reduction and machining time saved in bound mode per paper method, the corner methods'
+    mean reduction per case; tags name the best learned model per shape by test accuracy."""
+    metrics: dict[str, float] = {}
+    tags: dict[str, str] = {}
+    for shape in shapes:
+        accuracy = {}
+        for model in models:
+            found = _load(layout.train_metrics(shape, model))
+            if found is not None:
+                accuracy[model] = found["test"]["accuracy"]
+                metrics[f"table3.{shape}.{model}.test_accuracy"] = found["test"]["accuracy"]
+        learned = {m: a for m, a in accuracy.items() if m != "rule"}
+        if learned:
+            tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)
+        for model, entry in (_load(layout.qat_metrics(shape)) or {}).items():
+            if isinstance(entry, dict) and "accuracy_drop_points" in entry:
+                metrics[f"int8.{shape}.{model}.accuracy_drop_points"] = entry["accuracy_drop_points"]
+        smoothing = ((_load(layout.optimize_summary(shape)) or {}).get("methods", {}).get("bound", {})
+                     .get("plain", {}))
+        timing = ((_load(layout.feedrate_summary(shape)) or {}).get("methods", {}).get("bound", {})
+                  .get("plain", {}))
+        for method in PAPER_SMOOTHERS:
+            if method in smoothing:
+                metrics[f"smoothing.{shape}.{method}.mean_reduction_pct"] = smoothing[method]["mean_reduction_pct"]
+                metrics[f"smoothing.{shape}.{method}.max_hausdorff_mm"] = smoothing[method]["max_hausdorff_mm"]
+            if method in timing:
+                metrics[f"feedrate.{shape}.{method}.time_saved_pct"] = timing[method]["time_saved_pct"]
+    for case, record in ((_load(layout.corner_metrics) or {}).get("cases", {})).items():
+        for method, entry in record["methods"].items():
+            if entry.get("mean_reduction_pct") is not None:
+                metrics[f"corner.{case}.{method}.mean_reduction_pct"] = entry["mean_reduction_pct"]
+    return metrics, tags
