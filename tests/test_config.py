@@ -160,3 +160,40 @@ def test_every_optimize_module_is_a_dependency_of_the_stage_it_serves():
             for d in stage.get("deps", []) if isinstance(d, str)}
     modules = {f"src/toolpath/optimize/{p.name}" for p in (REPO / "src/toolpath/optimize").glob("*.py")}
     assert modules <= deps, sorted(modules - deps)
+
+
+def test_no_conf_key_goes_unread():
+    """Every leaf key of params.yaml is read somewhere: as an attribute or item, a keyword, a parameter or
+    dataclass field it is unpacked into, or a ${...} in dvc.yaml (models.* are checked by instantiation)."""
+    import pathlib
+
+    params = OmegaConf.to_container(OmegaConf.load(REPO / "params.yaml"))
+    source = "\n".join(f.read_text() for f in pathlib.Path(REPO / "src/toolpath").rglob("*.py"))
+    source += (REPO / "dvc.yaml").read_text()
+
+    def leaves(node, path=()):
+        if isinstance(node, dict):
+            for key, value in node.items():
+                yield from leaves(value, (*path, str(key)))
+        else:
+            yield path
+
+    unread = []
+    for path in leaves(params):
+        key = path[-1]
+        if path[0] == "models" or key == "_target_" or (path[0] == "generate" and len(path) > 2):
+            continue  # constructor arguments (instantiated above); drawn ranges, iterated by the synthesiser
+        patterns = (rf"\.{key}\b", rf"[\"']{key}[\"']", rf"\b{key}=", rf"\b{key}: ", rf"\$\{{{re.escape(path[0])}")
+        if not any(re.search(p, source, re.M) for p in patterns):
+            unread.append(".".join(path))
+    assert unread == []
+
+
+def test_the_model_and_shape_lists_agree_between_code_and_conf():
+    from toolpath.models.registry import MODEL_NAMES
+    from toolpath.shapes.synth import SHAPES
+
+    params = OmegaConf.load(REPO / "params.yaml")
+    assert tuple(params.shapes) == tuple(SHAPES)
+    assert tuple(params.train.models) == tuple(MODEL_NAMES) and set(params.models) == set(MODEL_NAMES)
+    assert set(params.qat.models) == set(MODEL_NAMES) - {"rule"}
