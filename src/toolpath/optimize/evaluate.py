@@ -18,13 +18,6 @@ COMPLEXITY = {
     "scso": "O(t p d)", "esoa": "O(t p d)", "avoa": "O(t p) + O(t p d)",
     "coa": "O(t p d)", "hba": "O(t p d)", "pso": "O(t p d)", "mean_filter": "O(w n)", "bezier": "O(n k^2)",
 }
-PAPER_REDUCTION = {"mean_filter": 54.0, "bezier": 67.0, "nacoa": 78.0}  # Sec. 5.2.4, per cent
-PAPER_TABLE6 = {  # runtime in minutes on an RTX 4070, GPU share, Eq. 34's efficiency
-    "nacoa": {"minutes": 10, "gpu_percent": 16, "efficiency": 8.4},
-    "scso": {"minutes": 12, "gpu_percent": 20, "efficiency": 6.67},
-    "esoa": {"minutes": 11, "gpu_percent": 18, "efficiency": 7.45},
-    "avoa": {"minutes": 17, "gpu_percent": 23, "efficiency": 4.53},
-}
 ROW_FIELDS = ("window", "category", "baseline_window", "mode", "method", "encoding", "local_curvature_before",
               "local_curvature_after", "reduction_pct", "smoothness_before", "smoothness_after",
               "fitness_before", "fitness_after", "hausdorff_mm", "one_sided_mm", "arc_length_change_pct",

@@ -1,9 +1,9 @@
 """The published figures of Li et al. (Sensors 2024) that the report sets ours beside.
 
 Table 2 (hyperparameters, training time in minutes), Table 3 (per cent, loss x 100 as printed),
-Table 4 (seconds, workload not stated) and Table 5's outcome; Table 6 and the curvature reductions
-of Sec. 5.2.4 live with the optimiser code (``toolpath.optimize.evaluate``).  Typed in once here
-from ``../shared/seeds/000_*.txt``.
+Table 4 (seconds, workload not stated), Table 5's outcome, Table 6 and the curvature reductions of
+Sec. 5.2.4; then Xie & Zhu's Table 1 and the NURBS corner paper's figures.  Typed in once here from
+``../shared/seeds/``.
 """
 
 from __future__ import annotations
@@ -69,3 +69,12 @@ XIE_ZHU_TABLE1 = {
 # largest curvature reduction at a corner; case 2 (dress) the machining time saved against its
 # refs. 20 and 21 (which we stand in for with a B-spline and a G2 Bezier transition).
 NURBS_CORNER_PAPER = {"w_max_reduction_pct": 92.7, "dress_saved_vs_ref20_pct": 8.0, "dress_saved_vs_ref21_pct": 36.9}
+
+# Li et al. (2024), Sec. 5.2.4 and Table 6
+PAPER_REDUCTION = {"mean_filter": 54.0, "bezier": 67.0, "nacoa": 78.0}  # Sec. 5.2.4, per cent
+PAPER_TABLE6 = {  # runtime in minutes on an RTX 4070, GPU share, Eq. 34's efficiency
+    "nacoa": {"minutes": 10, "gpu_percent": 16, "efficiency": 8.4},
+    "scso": {"minutes": 12, "gpu_percent": 20, "efficiency": 6.67},
+    "esoa": {"minutes": 11, "gpu_percent": 18, "efficiency": 7.45},
+    "avoa": {"minutes": 17, "gpu_percent": 23, "efficiency": 4.53},
+}

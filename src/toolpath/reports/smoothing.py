@@ -20,7 +20,8 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from toolpath.geometry.curvature import local_curvature  # noqa: E402
-from toolpath.optimize.evaluate import COMPLEXITY, PAPER_REDUCTION, PAPER_TABLE6, reduction_pct  # noqa: E402
+from toolpath.optimize.evaluate import COMPLEXITY, reduction_pct  # noqa: E402
+from toolpath.reports.paper import PAPER_REDUCTION, PAPER_TABLE6  # noqa: E402
 from toolpath.reports.tables import Table  # noqa: E402
 
 PAPER_METHODS = ("mean_filter", "bezier", "nacoa")
@@ -101,7 +102,25 @@ def reduction_table(metrics: Mapping[str, Mapping]) -> Table:
             table.add(cells)
     table.notes.append("Mean over the seeded sample of test windows, every Table 1 category equally represented. "
                        "The paper reports the reduction only, never the deviation it costs.")
+    table.notes += ranking_notes(metrics)
     return table
+
+
+def ranking_notes(metrics: Mapping[str, Mapping]) -> list[str]:
+    """Per shape and mode, our ranking of the paper's three methods by mean reduction, and whether it is
+    the paper's (NACOA > Bezier > mean filter)."""
+    paper = sorted(PAPER_METHODS, key=lambda m: -PAPER_REDUCTION[m])
+    notes = []
+    for shape, m in metrics.items():
+        for mode in ("none", "bound"):
+            stats = m["methods"].get(mode, {}).get("plain", {})
+            if not all(k in stats for k in PAPER_METHODS):
+                continue
+            ours = sorted(PAPER_METHODS, key=lambda k: -stats[k]["mean_reduction_pct"])
+            verdict = "as in the paper" if ours == paper else f"not the paper's {' > '.join(map(label, paper))}"
+            notes.append(f"{shape}, {'paper mode' if mode == 'none' else 'bound mode'}: "
+                         f"{' > '.join(map(label, ours))} ({verdict}).")
+    return notes
 
 
 def _smoothed(smoothed: Mapping[str, np.ndarray], window: int, method: str, mode: str) -> np.ndarray | None:

@@ -6,8 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from toolpath.optimize.evaluate import PAPER_REDUCTION
-from toolpath.reports.paper import TABLE3
+from toolpath.reports.paper import PAPER_REDUCTION, TABLE3
 
 HEADLINE = "fig8_methods"
 
