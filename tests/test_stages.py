@@ -79,7 +79,7 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     client = mlflow.MlflowClient()
     run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
                if r.info.run_name == "train@maple_leaf-mlp")
-    steps = [m.step for m in client.get_metric_history(run.info.run_id, "epoch.val.accuracy")]
+    steps = [m.step for m in client.get_metric_history(run.info.run_id, "val_accuracy")]
     assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
     assert "confusion_test.json" in [a.path for a in client.list_artifacts(run.info.run_id)]
     _trained(smoke_dir, "maple_leaf", "mlp")  # same seed, byte-identical metrics

@@ -54,8 +54,8 @@ def main(argv: list[str] | None = None) -> None:
         checkpoint = layout.checkpoint(args.shape, args.model)
         artifacts.save_checkpoint(to_checkpoint(clf), checkpoint)
         for record in history:
-            # per-epoch curves under epoch.*: val.accuracy is the final (restored) model's figure
-            mlflow.log_metrics({"epoch." + k.replace("_", ".", 1): v for k, v in vars(record).items() if k != "epoch"},
+            # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure
+            mlflow.log_metrics({k: v for k, v in vars(record).items() if k != "epoch"},
                                step=record.epoch)
         mlflow.log_metrics({k: v for k, v in config.flat(metrics).items() if isinstance(v, int | float)})
         mlflow.log_metric("train_seconds", seconds)
