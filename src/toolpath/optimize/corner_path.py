@@ -8,7 +8,7 @@ as the chords of an arc, are left to the controller's blend).  Each corner gets 
 SDLS learn corners up to that leg).  The methods:
 
 * ``nurbs_pso`` — method 2 by PSO (Eq. 7-8); ``nurbs_net`` — FDLS / SDLS, checked, repaired or
-  handed back to PSO (an answer sharper than the circular blend within delta_max goes back too);
+  handed back to PSO (an answer sharper than method 1 at the same delta_max goes back too);
   ``bspline`` and ``bezier`` — the comparison transitions of :mod:`toolpath.optimize.transitions`;
 * a corner no method can smooth under Eq. 7 (or a near reversal) stays a sharp vertex, planned with
   the controller blend radius of :func:`toolpath.feedrate.polyline_radius`, and is reported.
@@ -91,8 +91,17 @@ class SmoothedPath:
     corners: tuple[CornerResult, ...]
 
 
-# (corner, settings, curvature of the circular blend within delta_max) -> (curve or None, source)
+# (corner, settings, cur_max for a surrogate's answer) -> (curve or None, source)
 Smoother = Callable[[Corner, CornerSettings, float], tuple[CornerCurve | None, str]]
+
+
+def surrogate_limit(corner: Corner, delta_max: float) -> float:
+    """Eq. 7's cur_max for the surrogates' answers: the peak curvature of method 1 at the same delta_max
+    (the curve FDLS starts from), so a network answer must improve on it or go back to PSO.  (The
+    circular blend cannot serve: no G2 curve inside the corner within delta_max is as flat as the arc,
+    so every answer would go back.)"""
+    reference = method1_at(corner, delta_max)
+    return reference.max_curvature if reference is not None and reference.feasible else math.inf
 
 
 def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
@@ -106,8 +115,8 @@ def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
             raise ValueError("nurbs_net needs the trained FDLS and SDLS networks")
         from toolpath.optimize.corner_net import smooth_corner
 
-        # Eq. 7's cur_max for the networks' answers: no sharper than the circular blend
-        return lambda corner, s, arc: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso, arc)
+        # Eq. 7's cur_max for the networks' answers: sharper than method 1 at delta_max goes back to PSO
+        return lambda corner, s, limit: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso, limit)
     if method == "bspline":
         return lambda corner, s, _: (bspline_transition(corner.turn, 2 * corner.leg, s.delta_max), "closed-form")
     if method == "bezier":
@@ -124,7 +133,7 @@ def corner_error(found: CornerCurve, turn: float) -> float:
 
 def arc_blend_curvature(corner: Corner, delta_max: float) -> float:
     """Curvature of the circular blend within ``delta_max`` of a corner whose two segments are 4 L long
-    (the 'before' of :class:`CornerResult` and the surrogates' cur_max, for a corner seen alone)."""
+    (the 'before' of :class:`CornerResult`, for a corner seen alone)."""
     legs = np.array([corner.leg_point(4 * corner.leg, -1), [0.0, 0.0], corner.leg_point(4 * corner.leg, 1)])
     return float(1.0 / polyline_radius(legs, delta_max)[1])
 
@@ -165,11 +174,11 @@ def smooth_path(points: np.ndarray, smoother: Smoother, settings: CornerSettings
     results = []
     for vertex, corner, frame in corner_frames(points, settings):
         before = 1.0 / within_delta[vertex]
+        limit = surrogate_limit(corner, settings.delta_max)
+        method1 = limit if math.isfinite(limit) else math.nan
         started = time.perf_counter()
-        found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings, before)
+        found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings, limit)
         seconds = time.perf_counter() - started
-        reference = method1_at(corner, settings.delta_max)
-        method1 = reference.max_curvature if reference is not None and reference.feasible else math.nan
         if found is None or not found.feasible:
             results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, method1,
                                         1.0 / blend[vertex], math.nan, False, "kept", seconds))

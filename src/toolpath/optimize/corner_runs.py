@@ -14,7 +14,7 @@ import numpy as np
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.optimize.corner import PsoSettings, evaluate
-from toolpath.optimize.corner_path import CornerSettings, arc_blend_curvature, corner_smoother, smooth_path
+from toolpath.optimize.corner_path import CornerSettings, corner_smoother, smooth_path, surrogate_limit
 from toolpath.seeds import seed_for
 from toolpath.shapes.cases import case_path
 
@@ -56,9 +56,9 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     test = []
     for (corner, _), (sample, pso_seconds) in zip(drawn[data["train"]:], solved[data["train"]:], strict=True):
         started = time.perf_counter()
-        # as on the case paths: an answer sharper than the circular blend goes back to PSO
+        # as on the case paths: an answer sharper than method 1 at delta_max goes back to PSO
         found, source = smooth_corner(nets["fdls"], nets["sdls"], corner, settings.delta_max, settings.pso,
-                                      arc_blend_curvature(corner, settings.delta_max))
+                                      surrogate_limit(corner, settings.delta_max))
         net_seconds = time.perf_counter() - started
         pso_curvature = None
         if sample is not None:

@@ -147,8 +147,9 @@ def surrogate_table(metrics: Mapping, timing: Mapping) -> Table:
     table.add([s["train_corners"], s["test_corners"], src["net"], src["repaired"], src["pso"], src["infeasible"],
                _num(s["curvature_ratio_to_pso"], ".3f"), _num(timing.get("pso_seconds_per_corner"), ".3f"),
                _num(timing.get("surrogate_seconds_per_corner"), ".3f")])
-    table.notes.append("Every surrogate answer is checked against Eq. 7, its peak curvature against the circular blend "
-                       "within delta_max (cur_max); the time per corner includes the check, the "
+    table.notes.append("Every surrogate answer is checked against Eq. 7, the inside-the-corner rule and the two-sided "
+                       "error, its peak curvature against method 1 at the same delta_max (cur_max); the time per "
+                       "corner includes the check, the "
                        "repair and any fall-back to PSO, so it only drops below PSO's when the networks are right "
                        "often. The paper reports its surrogates faster than PSO (ESM Appendix B).")
     return table
