@@ -141,3 +141,20 @@ def test_drawn_window_keeps_its_category_and_says_when_it_falls_back():
     assert pick_window(rows, 3, False, seed=0)[1] == 3
     assert pick_window(rows, 2, True, seed=0) in {(11, 3), (20, 4)}  # no category 2: drawn elsewhere, said so
     assert pick_window([], 3, True, seed=0) is None
+
+
+def test_a_model_predicting_one_class_is_shown_as_degenerate_never_scored():
+    from toolpath.reports.tables import table3
+    from toolpath.training.metrics import DEGENERATE, classification_metrics, degenerate
+
+    y = np.array([1, 1, 1, 2, 3, 4])
+    majority = classification_metrics(y, np.tile([0.7, 0.1, 0.1, 0.1], (6, 1)))
+    assert degenerate(majority) and majority["accuracy"] == pytest.approx(0.5)  # the majority share
+    honest = classification_metrics(y, np.eye(4)[y - 1])
+    assert not degenerate(honest)
+    table = table3("gear", {"lstm": majority, "mlp": honest})
+    assert table.rows[0] == ["lstm", *[DEGENERATE] * 6]
+    assert table.rows[1][1].startswith("**100.00**")  # the best among scored models only
+    summary = table3_summary({"gear": {"lstm": {"test": majority}, "mcrl": {"test": majority},
+                                       "mlp": {"test": honest}}})
+    assert f"| gear | {DEGENERATE} (94.8 % / 94.8 %) | mlp 100.0 % / 100.0 % | - |" in summary

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from toolpath.artifacts import Layout
+from toolpath.training.metrics import degenerate
 
 PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 
@@ -33,9 +34,13 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
         accuracy = {}
         for model in models:
             found = _load(layout.train_metrics(shape, model))
-            if found is not None:
-                accuracy[model] = found["test"]["accuracy"]
-                metrics[f"table3.{shape}.{model}.test_accuracy"] = found["test"]["accuracy"]
+            if found is None:
+                continue
+            if degenerate(found["test"]):  # flagged, never scored
+                metrics[f"table3.{shape}.{model}.degenerate"] = 1.0
+                continue
+            accuracy[model] = found["test"]["accuracy"]
+            metrics[f"table3.{shape}.{model}.test_accuracy"] = found["test"]["accuracy"]
         learned = {m: a for m, a in accuracy.items() if m != "rule"}
         if learned:
             tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)

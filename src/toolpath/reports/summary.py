@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from toolpath.reports.paper import PAPER_REDUCTION, TABLE3
+from toolpath.training.metrics import DEGENERATE, degenerate
 
 HEADLINE = "fig8_methods"
 
@@ -19,14 +20,20 @@ def table3_summary(metrics: Mapping[str, Mapping[str, Mapping]]) -> str:
         learned = {m: v["test"] for m, v in models.items() if m != "rule"}
         if not learned:
             continue
-        best = max(learned, key=lambda m: learned[m]["f1"])
+        scored = {m: v for m, v in learned.items() if not degenerate(v)}
+        best = max(scored, key=lambda m: scored[m]["f1"]) if scored else None
         mcrl = learned.get("mcrl")
         paper = TABLE3.get(shape, {}).get("mcrl")
-        mcrl_cell = (f"{100 * mcrl['accuracy']:.1f} % / {100 * mcrl['f1']:.1f} %"
-                     + (f" ({paper[0]:.1f} % / {paper[4]:.1f} %)" if paper else "")) if mcrl else "-"
+        paper_cell = f" ({paper[0]:.1f} % / {paper[4]:.1f} %)" if paper else ""
+        if mcrl is None:
+            mcrl_cell = "-"
+        elif degenerate(mcrl):
+            mcrl_cell = DEGENERATE + paper_cell
+        else:
+            mcrl_cell = f"{100 * mcrl['accuracy']:.1f} % / {100 * mcrl['f1']:.1f} %" + paper_cell
+        best_cell = f"{best} {100 * scored[best]['accuracy']:.1f} % / {100 * scored[best]['f1']:.1f} %" if best else "-"
         rule = models.get("rule", {}).get("test", {}).get("accuracy")
-        lines.append(f"| {shape} | {mcrl_cell} | {best} {100 * learned[best]['accuracy']:.1f} % / "
-                     f"{100 * learned[best]['f1']:.1f} % | {f'{100 * rule:.1f} %' if rule is not None else '-'} |")
+        lines.append(f"| {shape} | {mcrl_cell} | {best_cell} | {f'{100 * rule:.1f} %' if rule is not None else '-'} |")
     return "\n".join(lines) + "\n"
 
 

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from toolpath.reports.paper import LOWER_IS_BETTER, TABLE2, TABLE3, TABLE3_COLUMNS
+from toolpath.training.metrics import DEGENERATE, degenerate
 
 CATEGORY_NAMES = {1: "smooth", 2: "slightly rough", 3: "rugged", 4: "sharp turning corner"}
 
@@ -69,22 +70,27 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
     show a dash there."""
     headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS)]
     table = Table(f"Table 3, {shape}: test metrics, ours beside the paper (per cent; loss x 100)", headers)
+    scored = {m: v for m, v in test_metrics.items() if not degenerate(v)}
     best = {}
     for column in TABLE3_COLUMNS:
-        values = [_ours(m, column) for m in test_metrics.values()]
-        best[column] = min(values) if column in LOWER_IS_BETTER else max(values)
+        values = [_ours(m, column) for m in scored.values()]
+        best[column] = (min(values) if column in LOWER_IS_BETTER else max(values)) if values else None
     for model, metrics in test_metrics.items():
         cells: list[object] = [model]
+        if model not in scored:
+            table.add([model, *([DEGENERATE] * len(TABLE3_COLUMNS))])
+            continue
         paper = TABLE3.get(shape, {}).get(model)
         for k, column in enumerate(TABLE3_COLUMNS):
             ours = _ours(metrics, column)
             text = f"{ours:.2f}"
-            if abs(ours - best[column]) < 1e-9:
+            if best[column] is not None and abs(ours - best[column]) < 1e-9:
                 text = f"**{text}**"
             cells.append(f"{text} / {paper[k]:.2f} ({ours - paper[k]:+.2f})" if paper else f"{text} / -")
         table.add(cells)
     table.notes.append("Bold: our best per column. A negative difference in accuracy, precision, recall, F1 or "
-                       "AUC (positive in loss) means ours is worse than the paper's.")
+                       "AUC (positive in loss) means ours is worse than the paper's. A model whose every test "
+                       f"prediction falls into one class is shown as *{DEGENERATE}*, not scored.")
     return table
 
 

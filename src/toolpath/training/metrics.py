@@ -54,3 +54,15 @@ def classification_metrics(y_true: np.ndarray, proba: np.ndarray, classes: np.nd
                       for k, c in enumerate(classes)},
         "confusion": confusion_matrix(y_true, pred, labels=classes).tolist(),
     }
+
+
+DEGENERATE = "degenerate (majority class)"
+
+
+def degenerate(metrics: dict) -> bool:
+    """True when every prediction of a split fell into one class (the confusion matrix has one non-empty
+    column): such a model has learned nothing, and its accuracy is the share of that class, so it is
+    shown as :data:`DEGENERATE`, never as a score."""
+    columns = np.asarray(metrics["confusion"]).sum(axis=0)
+    return int((columns > 0).sum()) <= 1 and int(columns.sum()) > 0
+
