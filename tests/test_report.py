@@ -153,8 +153,27 @@ def test_a_model_predicting_one_class_is_shown_as_degenerate_never_scored():
     honest = classification_metrics(y, np.eye(4)[y - 1])
     assert not degenerate(honest)
     table = table3("gear", {"lstm": majority, "mlp": honest})
-    assert table.rows[0] == ["lstm", *[DEGENERATE] * 6]
+    assert table.rows[0] == ["lstm", *[DEGENERATE] * 6, "-"]
     assert table.rows[1][1].startswith("**100.00**")  # the best among scored models only
     summary = table3_summary({"gear": {"lstm": {"test": majority}, "mcrl": {"test": majority},
                                        "mlp": {"test": honest}}})
     assert f"| gear | {DEGENERATE} (94.8 % / 94.8 %) | mlp 100.0 % / 100.0 % | - |" in summary
+
+
+
+def test_program_bootstrap_hand_cases():
+    from toolpath.training.metrics import program_bootstrap
+
+    perfect = program_bootstrap(np.ones(30, bool), np.repeat(np.arange(6), 5), seed=0)
+    assert (perfect["low"], perfect["high"], perfect["programs"]) == (1.0, 1.0, 6)
+    # one program right, one wrong, equal sizes: draws give 0, 1/2 or 1
+    split = program_bootstrap(np.r_[np.ones(10), np.zeros(10)], np.r_[np.zeros(10), np.ones(10)], seed=1)
+    assert split["low"] == 0.0 and split["high"] == 1.0 and split["half_width"] == 0.5
+    # the unit is the program: ten programs of 100 windows are wider than their windows would suggest
+    rng = np.random.default_rng(2)
+    per_program = rng.uniform(0.6, 1.0, 10)
+    correct = np.concatenate([rng.random(100) < p for p in per_program])
+    ci = program_bootstrap(correct, np.repeat(np.arange(10), 100), seed=3)
+    window_half_width = 1.96 * np.sqrt(correct.mean() * (1 - correct.mean()) / len(correct))
+    assert ci["low"] < correct.mean() < ci["high"] and ci["half_width"] > 1.5 * window_half_width
+    assert program_bootstrap(correct, np.repeat(np.arange(10), 100), seed=3) == ci

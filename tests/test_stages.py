@@ -73,6 +73,10 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     for split in ("val", "test"):
         assert {"accuracy", "loss", "precision", "recall", "f1", "auc", "per_class", "confusion"} <= set(metrics[split])
     assert metrics["epochs_run"] == 2
+    windows = np.load(smoke_dir / "data/windows/maple_leaf.npz")
+    test_programs = len(np.unique(windows["program"][windows["split"] == 2]))
+    ci = metrics["test"]["accuracy_ci"]  # over the test programs, around the accuracy
+    assert ci["programs"] == test_programs and ci["low"] <= metrics["test"]["accuracy"] <= ci["high"]
     curves = (smoke_dir / "reports/plots/train/maple_leaf/mlp.csv").read_text().splitlines()
     assert curves[0] == "epoch,lr,train_loss,train_accuracy,val_loss,val_accuracy" and len(curves) == 3
     assert (smoke_dir / "models/maple_leaf/mlp.pt").is_file()

@@ -68,7 +68,7 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
     """Table 3 for one shape: per model, ours / paper / difference for each column; the best of ours
     per column in bold (lowest loss, highest otherwise).  Models without a paper row (the exact rule)
     show a dash there."""
-    headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS)]
+    headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS), "accuracy, 95 % interval (programs)"]
     table = Table(f"Table 3, {shape}: test metrics, ours beside the paper (per cent; loss x 100)", headers)
     scored = {m: v for m, v in test_metrics.items() if not degenerate(v)}
     best = {}
@@ -78,7 +78,7 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
     for model, metrics in test_metrics.items():
         cells: list[object] = [model]
         if model not in scored:
-            table.add([model, *([DEGENERATE] * len(TABLE3_COLUMNS))])
+            table.add([model, *([DEGENERATE] * len(TABLE3_COLUMNS)), "-"])
             continue
         paper = TABLE3.get(shape, {}).get(model)
         for k, column in enumerate(TABLE3_COLUMNS):
@@ -87,10 +87,13 @@ def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
             if best[column] is not None and abs(ours - best[column]) < 1e-9:
                 text = f"**{text}**"
             cells.append(f"{text} / {paper[k]:.2f} ({ours - paper[k]:+.2f})" if paper else f"{text} / -")
+        ci = metrics.get("accuracy_ci")
+        cells.append(f"{100 * ci['low']:.1f} - {100 * ci['high']:.1f} ({ci['programs']})" if ci else "-")
         table.add(cells)
     table.notes.append("Bold: our best per column. A negative difference in accuracy, precision, recall, F1 or "
                        "AUC (positive in loss) means ours is worse than the paper's. A model whose every test "
-                       f"prediction falls into one class is shown as *{DEGENERATE}*, not scored.")
+                       f"prediction falls into one class is shown as *{DEGENERATE}*, not scored. The interval is a "
+                       "percentile bootstrap over test programs (the independent unit), not over windows.")
     return table
 
 

@@ -36,7 +36,9 @@ def main(argv: list[str] | None = None) -> None:
     layout, common = settings.layout(cfg), cfg.train.common
     torch.set_num_threads(common.threads)
     torch.use_deterministic_algorithms(True)
-    parts = artifacts.load_windows(layout.windows_file(args.shape), args.shape).parts()
+    data = artifacts.load_windows(layout.windows_file(args.shape), args.shape)
+    parts = data.parts()
+    programs = {s.label: data.program[data.split == s] for s in artifacts.Split}
     network, train_settings = settings.training(cfg, args.shape, args.model)
     name = f"{args.shape}-{args.model}"
     params = {**config.flat(network, "model"), **config.flat(train_settings, "train"),
@@ -46,7 +48,7 @@ def main(argv: list[str] | None = None) -> None:
 
         with EpochBar(name, train_settings.get("epochs", 0) if args.model != "rule" else 0) as bar:
             clf, metrics, history, seconds = fit_and_score(network, train_settings, common.class_weight, parts,
-                                                           on_epoch=bar.update)
+                                                           on_epoch=bar.update, programs=programs)
         artifacts.write_json(metrics, layout.train_metrics(args.shape, args.model))
         _write_curves(history, layout.train_curves(args.shape, args.model))
         artifacts.write_json({"train_seconds": seconds, "threads": common.threads},

@@ -97,14 +97,16 @@ def from_checkpoint(checkpoint: Mapping[str, Any]) -> Any:
 
 
 def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class_weight: str | None,
-                  parts: Mapping[str, tuple[np.ndarray, np.ndarray]], on_epoch=None) -> tuple[Any, dict, list, float]:
+                  parts: Mapping[str, tuple[np.ndarray, np.ndarray]], on_epoch=None,
+                  programs: Mapping[str, np.ndarray] | None = None) -> tuple[Any, dict, list, float]:
     """Train one model on ``parts['train']`` (validation: ``parts['val']``) and score it on the
     validation and test splits: (classifier, metrics, per-epoch history, seconds).  The exact rule (an
     estimator that is no torch module) is fitted as it is; it learns nothing.  The train stage and
-    every sweep trial call this, so a trial trains what the stage would."""
+    every sweep trial call this, so a trial trains what the stage would.  With ``programs`` (each
+    split's program per window) each split's accuracy gets a bootstrap interval over its programs."""
     import time
 
-    from toolpath.training.metrics import classification_metrics
+    from toolpath.training.metrics import classification_metrics, program_bootstrap
 
     started = time.perf_counter()
     if issubclass(target_class(network), torch.nn.Module):
@@ -113,7 +115,12 @@ def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class
     else:
         clf, history = build(network).fit(parts["train"][0]), []
     seconds = time.perf_counter() - started
-    metrics = {split: classification_metrics(parts[split][1], clf.predict_proba(parts[split][0]))
-               for split in ("val", "test")}
+    metrics = {}
+    for split in ("val", "test"):
+        proba = clf.predict_proba(parts[split][0])
+        metrics[split] = classification_metrics(parts[split][1], proba)
+        if programs is not None:
+            correct = clf.classes_[proba.argmax(axis=1)] == parts[split][1]
+            metrics[split]["accuracy_ci"] = program_bootstrap(correct, programs[split], settings.get("seed", 0))
     metrics["epochs_run"] = len(history)
     return clf, metrics, history, seconds

@@ -66,3 +66,21 @@ def degenerate(metrics: dict) -> bool:
     columns = np.asarray(metrics["confusion"]).sum(axis=0)
     return int((columns > 0).sum()) <= 1 and int(columns.sum()) > 0
 
+
+def program_bootstrap(correct: np.ndarray, programs: np.ndarray, seed: int, draws: int = 2000,
+                      level: float = 0.95) -> dict:
+    """A percentile bootstrap interval of the accuracy over *programs*, the independent unit (windows of
+    one program are not independent): programs are drawn with replacement, each draw's accuracy is the
+    share of correct windows in the drawn programs.  Returns the interval, its half-width and the
+    number of programs."""
+    correct = np.asarray(correct, dtype=np.float64)
+    ids, index = np.unique(np.asarray(programs), return_inverse=True)
+    hits = np.bincount(index, weights=correct, minlength=len(ids))
+    sizes = np.bincount(index, minlength=len(ids)).astype(np.float64)
+    rng = np.random.default_rng(seed)
+    pick = rng.integers(0, len(ids), size=(draws, len(ids)))
+    accuracy = hits[pick].sum(axis=1) / np.maximum(sizes[pick].sum(axis=1), 1.0)
+    low, high = np.quantile(accuracy, [(1 - level) / 2, (1 + level) / 2])
+    return {"low": float(low), "high": float(high), "half_width": float((high - low) / 2), "programs": int(len(ids)),
+            "level": level}
+
