@@ -119,3 +119,21 @@ def test_arc_blend_curvature_of_a_lone_corner_is_the_paths_before():
     (_, corner, _), = corner_frames(SQUARE, CornerSettings())
     smoothed = smooth_path(SQUARE, corner_smoother("bspline"), FAST)
     assert arc_blend_curvature(corner, 0.1) == pytest.approx(smoothed.corners[0].curvature_before, rel=1e-12)
+
+
+def test_surrogates_are_not_trusted_where_there_is_no_reference_to_beat(monkeypatch):
+    """Where method 1 cannot be held to delta_max the limit is infinite: the networks are not asked,
+    PSO decides (a repair there once pinched a curve to a near cusp that Eq. 7 alone accepted)."""
+    import math
+
+    from toolpath.optimize import corner_net
+    from toolpath.optimize.corner import Corner, PsoSettings
+    from toolpath.optimize.corner_path import surrogate_corner
+
+    def never(*args, **kwargs):
+        raise AssertionError("the networks were asked")
+
+    monkeypatch.setattr(corner_net, "smooth_corner", never)
+    corner = Corner(turn=math.radians(90), leg=1.0)
+    found, source = surrogate_corner((None, None), corner, 0.1, PsoSettings(particles=8, iterations=5), math.inf)
+    assert source == "pso" and found.feasible

@@ -104,6 +104,20 @@ def surrogate_limit(corner: Corner, delta_max: float) -> float:
     return reference.max_curvature if reference is not None and reference.feasible else math.inf
 
 
+def surrogate_corner(nets: tuple, corner: Corner, delta_max: float, pso: PsoSettings,
+                     limit: float) -> tuple[CornerCurve | None, str]:
+    """FDLS / SDLS's corner, checked against ``limit`` (Eq. 7's cur_max, :func:`surrogate_limit`): a
+    sharper answer goes back to PSO.  Where there is no reference to beat (method 1 cannot be held to
+    delta_max), a repair can pinch the curve into a near cusp that Eq. 7 alone accepts, so the networks
+    are not trusted there and PSO decides."""
+    from toolpath.optimize.corner_net import smooth_corner
+
+    if not math.isfinite(limit):
+        found, _ = pso_corner(corner, delta_max, settings=pso)
+        return (found, "pso") if found is not None else (None, "infeasible")
+    return smooth_corner(nets[0], nets[1], corner, delta_max, pso, limit)
+
+
 def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     """The corner function of ``method``; ``nurbs_net`` needs ``nets`` = (fdls, sdls)."""
     if method == "nurbs_pso":
@@ -113,10 +127,8 @@ def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     if method == "nurbs_net":
         if nets is None:
             raise ValueError("nurbs_net needs the trained FDLS and SDLS networks")
-        from toolpath.optimize.corner_net import smooth_corner
 
-        # Eq. 7's cur_max for the networks' answers: sharper than method 1 at delta_max goes back to PSO
-        return lambda corner, s, limit: smooth_corner(nets[0], nets[1], corner, s.delta_max, s.pso, limit)
+        return lambda corner, s, limit: surrogate_corner(nets, corner, s.delta_max, s.pso, limit)
     if method == "bspline":
         return lambda corner, s, _: (bspline_transition(corner.turn, 2 * corner.leg, s.delta_max), "closed-form")
     if method == "bezier":

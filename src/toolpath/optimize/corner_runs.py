@@ -14,7 +14,13 @@ import numpy as np
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.optimize.corner import PsoSettings, evaluate
-from toolpath.optimize.corner_path import CornerSettings, corner_smoother, smooth_path, surrogate_limit
+from toolpath.optimize.corner_path import (
+    CornerSettings,
+    corner_smoother,
+    smooth_path,
+    surrogate_corner,
+    surrogate_limit,
+)
 from toolpath.seeds import seed_for
 from toolpath.shapes.cases import case_path
 
@@ -35,7 +41,7 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     test on the rest."""
     import torch
 
-    from toolpath.optimize.corner_net import ResidualMLP, draw_corners, fdls_data, fit, sdls_data, smooth_corner
+    from toolpath.optimize.corner_net import ResidualMLP, draw_corners, fdls_data, fit, sdls_data
 
     data = ccfg["dataset"]
     drawn = draw_corners(data["train"] + data["test"], seed_for(seed, "corner", "dataset"),
@@ -57,8 +63,8 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     for (corner, _), (sample, pso_seconds) in zip(drawn[data["train"]:], solved[data["train"]:], strict=True):
         started = time.perf_counter()
         # as on the case paths: an answer sharper than method 1 at delta_max goes back to PSO
-        found, source = smooth_corner(nets["fdls"], nets["sdls"], corner, settings.delta_max, settings.pso,
-                                      surrogate_limit(corner, settings.delta_max))
+        found, source = surrogate_corner((nets["fdls"], nets["sdls"]), corner, settings.delta_max, settings.pso,
+                                         surrogate_limit(corner, settings.delta_max))
         net_seconds = time.perf_counter() - started
         pso_curvature = None
         if sample is not None:
