@@ -86,7 +86,10 @@ def _trial_runs(study, uri=None):
 
 
 def test_smoke_sweep_runs_trials_in_parallel_logs_nested_runs_and_writes_the_tuned_config(sweep_dir):
+    (sweep_dir / "conf/model/mcrl_tuned.yaml").unlink(missing_ok=True)  # the copy holds the committed one
     assert sweep_main([*SMOKE, "sweep.n_trials=3", "sweep.workers=2"]) == 0
+    assert not (sweep_dir / "conf/model/mcrl_tuned.yaml").exists()  # a sweep writes into conf/ only when asked
+    assert sweep_main(["--adopt", *SMOKE, "sweep.n_trials=3"]) == 0  # the study is complete: nothing more runs
     study = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db")
     assert [t.state.name for t in study.trials] == ["COMPLETE"] * 3
     assert study.trials[0].user_attrs["default_config"]  # trial 0 is the composed configuration

@@ -31,6 +31,9 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--trials", type=int, default=None,
                         help="run exactly this many trials now, whatever the study holds (default: the "
                              "trials still missing from sweep.n_trials)")
+    parser.add_argument("--adopt", action="store_true",
+                        help="also copy the tuned config into conf/model/ (a sweep writes into conf/ only when asked), "
+                             "so `dvc exp run -S model@models.<model>=<model>_tuned` can use it")
     parser.add_argument("overrides", nargs="*", help="Hydra overrides of conf/ (sweep.*, train.*, +experiment=...)")
     return parser.parse_args(argv)
 
@@ -113,6 +116,10 @@ def main(argv: list[str] | None = None) -> int:
           + (f" (default configuration, trial {default['number']}: {default['value']:.4f})" if default else ""))
     print(f"wrote {summary['tuned_config']}, {spec.summary.relative_to(root)}, "
           + ", ".join(v for v in summary["figures"].values()))
+    if args.adopt:
+        adopted = root / "conf" / "model" / Path(summary["tuned_config"]).name
+        adopted.write_text((root / summary["tuned_config"]).read_text(encoding="utf-8"), encoding="utf-8")
+        print(f"adopted it as {adopted.relative_to(root)}: dvc exp run -S 'model@models.{spec.model}={adopted.stem}'")
     return 0
 
 

@@ -70,7 +70,8 @@ def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
     lines = [f"# Written by `python -m toolpath.sweep`: study {spec.study}, trial {best.number},",
              f"# {spec.objective} {best.value:.4f} on {spec.shape}"
              + (f" (the composed default scored {default.value:.4f})." if default else "."),
-             f"# Use it: dvc exp run -S 'model@models.{spec.model}={spec.tuned_config.stem}'",
+             f"# Use it: python -m toolpath.sweep --adopt copies it into conf/model/, then "
+             f"dvc exp run -S 'model@models.{spec.model}={spec.tuned_config.stem}'",
              "# `schedule` overrides train.<shape> (lr, batch size, decay) for this model on every shape."]
     if elsewhere:
         lines.append("# Not representable in a model config, pass as overrides: " + " ".join(elsewhere))
