@@ -62,7 +62,10 @@ DEGENERATE = "degenerate (majority class)"
 def degenerate(metrics: dict) -> bool:
     """True when every prediction of a split fell into one class (the confusion matrix has one non-empty
     column): such a model has learned nothing, and its accuracy is the share of that class, so it is
-    shown as :data:`DEGENERATE`, never as a score."""
+    shown as :data:`DEGENERATE`, never as a score.  Without a confusion matrix there is nothing to judge
+    (False)."""
+    if metrics.get("confusion") is None:
+        return False
     columns = np.asarray(metrics["confusion"]).sum(axis=0)
     return int((columns > 0).sum()) <= 1 and int(columns.sum()) > 0
 
