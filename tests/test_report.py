@@ -177,3 +177,18 @@ def test_program_bootstrap_hand_cases():
     window_half_width = 1.96 * np.sqrt(correct.mean() * (1 - correct.mean()) / len(correct))
     assert ci["low"] < correct.mean() < ci["high"] and ci["half_width"] > 1.5 * window_half_width
     assert program_bootstrap(correct, np.repeat(np.arange(10), 100), seed=3) == ci
+
+
+
+def test_headline_names_a_corrupt_metrics_file_and_skips_an_absent_one(tmp_path):
+    from toolpath.artifacts import Layout
+    from toolpath.reports.headline import headline
+
+    layout = Layout.from_config({k: str(tmp_path / k) for k in (
+        "gcode", "windows", "metrics", "models", "plots", "timing", "corpus", "smoothed", "report", "sheets",
+        "sequence", "corner")})
+    assert headline(layout, ["gear"], ["mcrl"]) == ({}, {})  # nothing run yet: nothing to report
+    layout.train_metrics("gear", "mcrl").parent.mkdir(parents=True)
+    layout.train_metrics("gear", "mcrl").write_text("{")
+    with pytest.raises(SystemExit, match=r"train/gear/mcrl.json: not valid JSON"):
+        headline(layout, ["gear"], ["mcrl"])

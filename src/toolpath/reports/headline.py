@@ -18,10 +18,13 @@ PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 
 
 def _load(path: Path) -> dict | None:
+    """The metrics file, None when absent (a stage not run); a corrupt one stops with its name."""
+    if not path.is_file():
+        return None
     try:
         return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
+    except ValueError as exc:
+        raise SystemExit(f"{path}: not valid JSON ({exc}); `dvc repro` the stage that writes it") from None
 
 
 def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:
