@@ -11,10 +11,9 @@ from conftest import REPO
 from toolpath.geometry import local_curvature
 from toolpath.labels import categorize
 from toolpath.models import (
-    LEARNED,
-    MODEL_NAMES,
     LocalCurvatureRule,
     build,
+    is_learned,
     prepare,
     random_rotation_reflection,
 )
@@ -23,7 +22,8 @@ from toolpath.models.registry import parameter_count
 from toolpath.training import TorchClassifier
 
 # the composed configs (conf/model/rule.yaml takes its bounds from conf/label)
-CONFIGS = {n: OmegaConf.to_container(OmegaConf.load(REPO / "params.yaml").models[n], resolve=True) for n in MODEL_NAMES}
+CONFIGS = OmegaConf.to_container(OmegaConf.load(REPO / "params.yaml").models, resolve=True)
+LEARNED = [name for name, config in CONFIGS.items() if is_learned(config)]
 
 
 def windows(n=7, seed=0):

@@ -23,7 +23,7 @@ from rich.table import Table
 
 from toolpath import config
 from toolpath.artifacts import write_json
-from toolpath.models.registry import MODEL_NAMES, build, parameter_count
+from toolpath.models.registry import build, is_learned, parameter_count
 from toolpath.training.bench import machine
 
 OUT = Path("reports/bench")
@@ -36,9 +36,9 @@ def bench_models(threads: int, repeats: int, batch: int = 256, seed: int = 0) ->
     x = torch.randn(batch, 50, 2, generator=torch.Generator().manual_seed(seed)).cumsum(dim=1)
     x_np = x.double().numpy()
     runners = {}
-    for name in MODEL_NAMES:
+    for name in cfg:
         model = build(cfg[name])
-        if name == "rule":
+        if not is_learned(cfg[name]):
             model.fit(x_np)
             runners[name] = (model, lambda m=model: m.predict(x_np))
         else:

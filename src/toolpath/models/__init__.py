@@ -4,10 +4,10 @@ from toolpath.models.classic import CNN, LSTM, MLP, RNN
 from toolpath.models.inputs import prepare, random_rotation_reflection
 from toolpath.models.mcrl import MCRL
 from toolpath.models.modern import ConvMixer1d, ConvNeXt1d, MaxViT1d
-from toolpath.models.registry import LEARNED, MODEL_NAMES, build
+from toolpath.models.registry import build, is_learned
 from toolpath.models.rule import LocalCurvatureRule
 
 __all__ = [
-    "CNN", "LEARNED", "LSTM", "MCRL", "MLP", "MODEL_NAMES", "RNN", "ConvMixer1d", "ConvNeXt1d",
-    "LocalCurvatureRule", "MaxViT1d", "build", "prepare", "random_rotation_reflection",
+    "CNN", "LSTM", "MCRL", "MLP", "RNN", "ConvMixer1d", "ConvNeXt1d",
+    "LocalCurvatureRule", "MaxViT1d", "build", "is_learned", "prepare", "random_rotation_reflection",
 ]

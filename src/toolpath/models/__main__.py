@@ -8,7 +8,7 @@ from rich.console import Console
 from rich.table import Table
 
 from toolpath import config
-from toolpath.models.registry import MODEL_NAMES, build, parameter_count
+from toolpath.models.registry import build, parameter_count
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -16,7 +16,7 @@ def main(argv: list[str] | None = None) -> int:
     table = Table(title="models (conf/model, composed into params.yaml)")
     for column in ("name", "class", "parameters"):
         table.add_column(column, justify="right" if column == "parameters" else "left")
-    for name in MODEL_NAMES:
+    for name in models:
         model = build(models[name])
         table.add_row(name, type(model).__name__, f"{parameter_count(model):,}")
     Console().print(table)

@@ -1,14 +1,12 @@
-"""Models by name: ``conf/model/<name>.yaml`` holds ``_target_`` and arguments; :func:`build` instantiates."""
+"""Models by config: ``conf/model/<name>.yaml`` holds ``_target_`` and arguments; :func:`build` instantiates.
+
+The list of models is conf/'s (``models`` and ``train.models``); this module names none of them."""
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping, Sequence
 from typing import Any
-
-#: The nine model names of Table 3 (plus the exact rule) and the class each config targets.
-MODEL_NAMES = ("mcrl", "mlp", "cnn", "rnn", "lstm", "convmixer", "convnext", "maxvit", "rule")
-LEARNED = MODEL_NAMES[:-1]
 
 
 def split_schedule(config: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -44,6 +42,13 @@ def target_class(config: Mapping[str, Any]) -> type:
         return getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:
         raise ValueError(f"model `_target_` {target!r} does not name a class: {exc}") from None
+
+
+def is_learned(config: Mapping[str, Any]) -> bool:
+    """Whether a model config names a torch network (trained) rather than a fixed rule."""
+    import torch
+
+    return issubclass(target_class(config), torch.nn.Module)
 
 
 def build(config: Mapping[str, Any]) -> Any:

@@ -2,9 +2,9 @@
 
 from toolpath.shapes.cam import Roughness, discretise, offset_passes, roughen
 from toolpath.shapes.outlines import gear, maple_leaf, pentagram
-from toolpath.shapes.synth import SHAPES, draw, outline, synthesize
+from toolpath.shapes.synth import OUTLINES, draw, outline, synthesize
 
 __all__ = [
-    "SHAPES", "Roughness", "discretise", "draw", "gear", "maple_leaf", "offset_passes", "outline",
+    "OUTLINES", "Roughness", "discretise", "draw", "gear", "maple_leaf", "offset_passes", "outline",
     "pentagram", "roughen", "synthesize",
 ]

@@ -19,8 +19,6 @@ from toolpath.gcode.writer import Pass
 from toolpath.shapes import outlines
 from toolpath.shapes.cam import Roughness, discretise, offset_passes, roughen
 
-SHAPES = ("gear", "pentagram", "maple_leaf")
-
 
 def draw(spec: Any, rng: np.random.Generator) -> float | int:
     """One value from a fixed number, ``[low, high]`` or ``{log: [low, high]}``."""
@@ -40,18 +38,31 @@ def draw_all(specs: Mapping[str, Any], rng: np.random.Generator) -> dict[str, fl
     return {key: draw(specs[key], rng) for key in sorted(specs)}
 
 
+def _gear(params: Mapping[str, Any]) -> Polygon:
+    return outlines.gear(params["module"], int(params["teeth"]), params["pressure_angle"],
+                         params["addendum"], params["dedendum"], params["root_fillet"])
+
+
+def _pentagram(params: Mapping[str, Any]) -> Polygon:
+    return outlines.pentagram(params["outer_radius"], params["inner_ratio"], params["tip_fillet"],
+                              params["valley_fillet"])
+
+
+def _maple_leaf(params: Mapping[str, Any]) -> Polygon:
+    return outlines.maple_leaf(params["size"], int(params["serrations"]), params["serration_depth"],
+                               params["lobe_depth"], params["lobe_sharpness"])
+
+
+#: The part families this package can draw, by the name ``conf/generate`` gives their section.  Which
+#: of them the pipeline runs is conf/'s ``shapes`` list, not this catalogue.
+OUTLINES = {"gear": _gear, "pentagram": _pentagram, "maple_leaf": _maple_leaf}
+
+
 def outline(shape: str, params: Mapping[str, Any]) -> Polygon:
     """The part outline of ``shape`` for drawn ``params`` (keys as in ``conf/generate``)."""
-    if shape == "gear":
-        return outlines.gear(params["module"], int(params["teeth"]), params["pressure_angle"],
-                             params["addendum"], params["dedendum"], params["root_fillet"])
-    if shape == "pentagram":
-        return outlines.pentagram(params["outer_radius"], params["inner_ratio"],
-                                  params["tip_fillet"], params["valley_fillet"])
-    if shape == "maple_leaf":
-        return outlines.maple_leaf(params["size"], int(params["serrations"]), params["serration_depth"],
-                                   params["lobe_depth"], params["lobe_sharpness"])
-    raise ValueError(f"unknown shape {shape!r}; expected one of {SHAPES}")
+    if shape not in OUTLINES:
+        raise ValueError(f"unknown shape {shape!r}; this package draws {sorted(OUTLINES)}")
+    return OUTLINES[shape](params)
 
 
 def _roughness(rough: dict, rng: np.random.Generator) -> Roughness:

@@ -17,7 +17,6 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.windows import summarise
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import grouped_metrics, progress, shape_arg
 
 ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smoothed", "time_saved_pct",
@@ -25,8 +24,8 @@ ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smo
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     fcfg, layout = settings.plain(cfg.feedrate), settings.layout(cfg)
     machine, band = settings.machine(cfg), settings.feed_band(cfg)
     windows = artifacts.load_windows(layout.windows_file(args.shape), args.shape).windows.astype(np.float64)

@@ -11,13 +11,13 @@ from omegaconf import OmegaConf
 
 from toolpath import config, settings, tracking
 from toolpath.gcode.writer import write_program
-from toolpath.shapes.synth import SHAPES, synthesize
+from toolpath.shapes.synth import synthesize
 from toolpath.stages._common import clean_dir, progress, shape_arg
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     synth = OmegaConf.to_container(cfg.generate, resolve=True)
     shape_cfg = synth[args.shape]
     roughness = {**synth["roughness"], **shape_cfg["roughness"]}

@@ -14,13 +14,12 @@ from toolpath import artifacts, config, settings, tracking
 from toolpath.gcode import GCodeError, read_file
 from toolpath.labels import concat, label_program, split_by_program
 from toolpath.labels.summary import label_summary
-from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import progress, shape_arg
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     lab, layout, read_opts = cfg.label, settings.layout(cfg), settings.reader_options(cfg)
     files = sorted(layout.programs(args.shape).glob("*.nc"))
     if not files:

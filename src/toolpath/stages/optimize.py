@@ -21,13 +21,12 @@ from toolpath import artifacts, config, settings, tracking
 from toolpath.optimize.evaluate import ROW_FIELDS, summarise, timing
 from toolpath.optimize.methods import dispatch
 from toolpath.optimize.runs import convergence_curves, plan, run_task, sample_windows
-from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import grouped_metrics, progress, shape_arg
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     ocfg, layout = settings.smoothing(cfg), settings.layout(cfg)
     data = artifacts.load_windows(layout.windows_file(args.shape), args.shape)
     # the seed names stay "optimise" (the stage's former name): renaming them would change every draw
