@@ -23,10 +23,11 @@ $(STAMP): pyproject.toml Makefile | $(PY)
 
 install: $(STAMP)
 
-## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline.
+## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline, timing
+## every stage (reports/timing/pipeline.json: seconds per stage and per stage family).
 repro: install
 	$(PY) -m toolpath.config
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/dvc repro
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.cli.stage_times -- $(VENV)/bin/dvc repro
 	$(PY) -m toolpath.reports.readme
 
 ## Put the report's summary block (reports/readme_block.md, a DVC output) into README.md.
