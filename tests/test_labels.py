@@ -61,3 +61,33 @@ def test_split_is_by_program_stratified_and_seeded():
         split_by_program(program, labels, (0.5, 0.2, 0.2), seed=0)
     with pytest.raises(ValueError, match="cannot fill"):
         split_by_program(program[:100], labels[:100], (0.7, 0.15, 0.15), seed=0)
+
+
+def test_arc_share_counts_the_points_an_arc_reaches_per_window():
+    """60 one-millimetre G1 steps, then a half circle of radius 10 in fine chords.  The run starts at
+    X0 (where the rapid left the tool), so the first window (points 0-49) is all lines and the second
+    (points 50-99) holds X50-X60, 11 line points, and 39 arc points: share 39/50."""
+    from toolpath.gcode import ReaderOptions
+    from toolpath.labels.windows import arc_share
+
+    lines = ["G21 G90 G17", "G0 X0 Y0", "G1 F100"] + [f"X{k}" for k in range(1, 61)] + ["G2 X80 Y0 I10 J0"]
+    program = read_text("\n".join(lines) + "\n", options=ReaderOptions(chord_tolerance=0.0005))
+    windows = label_program(program, 50, 50)
+    share = arc_share(program, 50, 50)
+    assert len(share) == len(windows.label) >= 3
+    assert share[0] == 0.0 and share[1] == pytest.approx(39 / 50) and share[2] == 1.0
+
+
+def test_corpus_report_splits_arc_windows_from_line_windows_by_hand():
+    from toolpath.training.generalise import corpus_report
+
+    y = np.array([1, 1, 2, 3, 1, 4])
+    proba = np.eye(4)[np.array([1, 2, 2, 3, 1, 1]) - 1]  # one line window of category 1 and the 4 wrong
+    arcs = np.array([0.0, 0.0, 0.0, 0.0, 0.9, 0.6])
+    report = corpus_report(y, proba, arcs)
+    assert report["all"]["windows"] == 6 and report["all"]["rough_windows"] == 3
+    assert report["lines"]["windows"] == 4 and report["lines"]["accuracy"] == 0.75
+    assert report["lines"]["per_class"]["1"] == {"count": 2, "recall": 0.5}
+    assert report["lines"]["per_class"]["4"] == {"count": 0, "recall": None}
+    assert report["arcs"]["windows"] == 2 and report["arcs"]["per_class"]["4"]["recall"] == 0.0
+    assert report["arcs"]["majority_accuracy"] == 0.5

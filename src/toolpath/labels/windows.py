@@ -34,8 +34,9 @@ def categorize(curvature: np.ndarray, bounds: tuple[float, float, float] = TABLE
     return np.where(lc <= low, 1, np.where(lc < mid, 2, np.where(lc < high, 3, 4))).astype(np.int8)
 
 
-def feed_runs(program: Program) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Unbroken runs of cutting motion: (xy (k, 2), source line of each point (k,)).
+def feed_runs(program: Program, with_kinds: bool = False) -> list[tuple[np.ndarray, ...]]:
+    """Unbroken runs of cutting motion: (xy (k, 2), source line of each point (k,)), and with
+    ``with_kinds`` the :class:`Motion` that reaches each point (k,).
 
     Each run begins with the point the tool stood at before its first cutting move; repeated XY
     points are dropped.
@@ -51,8 +52,20 @@ def feed_runs(program: Program) -> list[tuple[np.ndarray, np.ndarray]]:
         xy = program.points[first:stop, :2]
         lines = program.lines_of_points[first:stop]
         xy, keep = drop_repeated(xy)
-        runs.append((xy, lines[keep]))
+        runs.append((xy, lines[keep], program.kinds[first:stop][keep]) if with_kinds else (xy, lines[keep]))
     return runs
+
+
+def arc_share(program: Program, size: int = 50, stride: int = 50) -> np.ndarray:
+    """Per window of :func:`label_program` (same order), the share of its points that a G2/G3 arc
+    reaches: the reader linearises arcs into chords, so such a window's turns come from the chord
+    tolerance, not from CAM roughness."""
+    shares = []
+    for _, _, kinds in feed_runs(program, with_kinds=True):
+        count = 0 if len(kinds) < size else (len(kinds) - size) // stride + 1
+        idx = (np.arange(count) * stride)[:, None] + np.arange(size)[None, :]
+        shares.append((kinds[idx] == Motion.ARC).mean(axis=1) if count else np.zeros(0))
+    return np.concatenate(shares) if shares else np.zeros(0)
 
 
 @dataclass

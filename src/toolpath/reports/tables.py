@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from toolpath.reports.paper import LOWER_IS_BETTER, TABLE2, TABLE3, TABLE3_COLUMNS
-from toolpath.training.metrics import DEGENERATE, degenerate
+from toolpath.training.metrics import DEGENERATE
 
 CATEGORY_NAMES = {1: "smooth", 2: "slightly rough", 3: "rugged", 4: "sharp turning corner"}
 
@@ -59,41 +59,78 @@ class Table:
         return "\n".join(lines) + "\n"
 
 
-def _ours(metrics: Mapping, column: str) -> float:
-    """Our figure in the paper's units: per cent, and the loss x 100 as the paper prints it."""
-    return 100.0 * float(metrics[column])
+def _ours(figures: Mapping, column: str) -> tuple[float, float | None]:
+    """Our mean and sd over the replicates in the paper's units: per cent, the loss x 100 as the paper
+    prints it."""
+    entry = figures[column]
+    sd = entry.get("sd")
+    return 100.0 * float(entry["mean"]), (None if sd is None else 100.0 * float(sd))
 
 
-def table3(shape: str, test_metrics: Mapping[str, Mapping]) -> Table:
-    """Table 3 for one shape: per model, ours / paper / difference for each column; the best of ours
-    per column in bold (lowest loss, highest otherwise).  Models without a paper row (the exact rule)
-    show a dash there."""
-    headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS), "accuracy, 95 % interval (programs)"]
-    table = Table(f"Table 3, {shape}: test metrics, ours beside the paper (per cent; loss x 100)", headers)
-    scored = {m: v for m, v in test_metrics.items() if not degenerate(v)}
+def table3(shape: str, summaries: Mapping[str, Mapping]) -> Table:
+    """Table 3 for one shape: per model, our mean +- sd over the training seeds / the paper / the
+    difference of the mean, for each column; the best of our means per column in bold (lowest loss,
+    highest otherwise).  ``summaries``: per model the ``replicates`` entry of its train metrics
+    (:func:`toolpath.training.replicates.summarise`).  A model all of whose seeds predict one class is
+    shown as degenerate, never scored; one some of whose seeds do is scored on the others and says so.
+    Models without a paper row (the exact rule) show a dash there."""
+    from toolpath.training.replicates import describe
+
+    headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS),
+               "accuracy, 95 % interval (programs)", "seeds"]
+    table = Table(f"Table 3, {shape}: test metrics, mean +- sd over training seeds, ours beside the paper "
+                  "(per cent; loss x 100)", headers)
+    scored = {m: v for m, v in summaries.items() if v["degenerate"] < v["replicates"]}
     best = {}
     for column in TABLE3_COLUMNS:
-        values = [_ours(m, column) for m in scored.values()]
+        values = [_ours(v["test"], column)[0] for v in scored.values()]
         best[column] = (min(values) if column in LOWER_IS_BETTER else max(values)) if values else None
-    for model, metrics in test_metrics.items():
-        cells: list[object] = [model]
+    for model, summary in summaries.items():
+        note = describe(summary)
         if model not in scored:
-            table.add([model, *([DEGENERATE] * len(TABLE3_COLUMNS)), "-"])
+            table.add([model, *([DEGENERATE] * len(TABLE3_COLUMNS)), "-", str(summary["replicates"])])
             continue
+        cells: list[object] = [f"{model} ({note})" if note else model]
         paper = TABLE3.get(shape, {}).get(model)
         for k, column in enumerate(TABLE3_COLUMNS):
-            ours = _ours(metrics, column)
-            text = f"{ours:.2f}"
-            if best[column] is not None and abs(ours - best[column]) < 1e-9:
+            mean, sd = _ours(summary["test"], column)
+            text = f"{mean:.2f}" + (f" +- {sd:.2f}" if sd is not None else "")
+            if best[column] is not None and abs(mean - best[column]) < 1e-9:
                 text = f"**{text}**"
-            cells.append(f"{text} / {paper[k]:.2f} ({ours - paper[k]:+.2f})" if paper else f"{text} / -")
-        ci = metrics.get("accuracy_ci")
+            cells.append(f"{text} / {paper[k]:.2f} ({mean - paper[k]:+.2f})" if paper else f"{text} / -")
+        ci = summary.get("accuracy_ci")
         cells.append(f"{100 * ci['low']:.1f} - {100 * ci['high']:.1f} ({ci['programs']})" if ci else "-")
+        cells.append(str(summary["replicates"]))
         table.add(cells)
-    table.notes.append("Bold: our best per column. A negative difference in accuracy, precision, recall, F1 or "
-                       "AUC (positive in loss) means ours is worse than the paper's. A model whose every test "
-                       f"prediction falls into one class is shown as *{DEGENERATE}*, not scored. The interval is a "
-                       "percentile bootstrap over test programs (the independent unit), not over windows.")
+    table.notes.append("Ours: mean +- standard deviation over the training seeds (column *seeds*; the exact rule "
+                       "learns nothing and runs once). Bold: our best mean per column. A negative difference in "
+                       "accuracy, precision, recall, F1 or AUC (positive in loss) means ours is worse than the "
+                       f"paper's. A model whose every test prediction falls into one class is shown as "
+                       f"*{DEGENERATE}*, not scored. The interval is a percentile bootstrap over test programs (the "
+                       "independent unit, not windows) of the accuracy averaged over the seeds.")
+    return table
+
+
+def corpus_table(by_origin: Mapping[str, Mapping]) -> Table:
+    """Real G-code windows by origin (all, mostly from linearised arcs, the rest): counts, rough
+    windows, accuracy against the rule's labels, and each category's count and recall."""
+    names = {"all": "all windows", "arcs": "from G2/G3 arcs (> half the points)", "lines": "from G1 lines"}
+    headers = ["windows", "count", "rough (cat. >= 2)", "accuracy %", "macro F1 %", "majority class %",
+               *(f"cat. {c} count (recall %)" for c in CATEGORY_NAMES)]
+    table = Table("Table 15 (ours): the all-shapes MCRL on real G-code, by where the windows come from", headers)
+    for key, name in names.items():
+        entry = by_origin.get(key, {"windows": 0})
+        if not entry["windows"]:
+            table.add([name, "0", *(["-"] * (len(headers) - 2))])
+            continue
+        classes = [entry["per_class"][str(c)] for c in CATEGORY_NAMES]
+        table.add([name, entry["windows"], entry["rough_windows"], f"{100 * entry['accuracy']:.1f}",
+                   f"{100 * entry['f1']:.1f}", f"{100 * entry['majority_accuracy']:.1f}",
+                   *(f"{c['count']} ({100 * c['recall']:.0f})" if c["recall"] is not None else "0 (-)"
+                     for c in classes)])
+    table.notes.append("Labels: the exact LocalCurvature rule (Eq. 3) on each window. The reader linearises arcs into "
+                       "chords within its chord tolerance, so an arc window's turns are the reader's, not CAM "
+                       "roughness. Recall is left blank for a category with no window.")
     return table
 
 
