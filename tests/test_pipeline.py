@@ -124,7 +124,7 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     and one MLflow parent run per experiment named after it (both workers write one SQLite store)."""
     work, env, dvc = smoke_copy(tmp_path)
     queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.common.lr=1e-3,5e-4",
-                        "train@gear-mlp"], work, env)
+                        "train@gear"], work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
     run(dvc + ["queue", "start", "-j", "2"], work, env)
@@ -147,4 +147,4 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     assert set(names) <= set(parents)
     for name in names:
         children = [r.info.run_name for r in runs if r.data.tags.get("mlflow.parentRunId") == parents[name]]
-        assert "train@gear-mlp" in children
+        assert "train@gear" in children

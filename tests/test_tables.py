@@ -1,8 +1,8 @@
-"""Report tables: rendering and Table 3 beside the paper."""
+"""Report tables: rendering (Table 3 beside the paper: tests/test_replicates.py)."""
 
 import pytest
 
-from toolpath.reports.tables import Table, table3
+from toolpath.reports.tables import Table
 
 
 def test_markdown_and_latex_render_the_same_cells():
@@ -15,12 +15,3 @@ def test_markdown_and_latex_render_the_same_cells():
         table.add(["only one"])
 
 
-def test_table3_puts_the_paper_beside_ours_and_marks_the_best():
-    def metrics(acc, loss):
-        return {"accuracy": acc, "loss": loss, "precision": acc, "recall": acc, "f1": acc, "auc": acc}
-
-    table = table3("gear", {"mcrl": metrics(0.9, 0.2), "rule": metrics(1.0, 0.1)})
-    mcrl, rule = table.rows
-    assert mcrl[1] == "90.00 / 94.75 (-4.75)"  # worse than the paper: shown negative
-    assert mcrl[2] == "20.00 / 14.26 (+5.74)"  # a higher loss than the paper's
-    assert rule[1] == "**100.00** / -" and rule[2] == "**10.00** / -"  # best per column, no paper row

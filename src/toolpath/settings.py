@@ -52,29 +52,39 @@ def bounds(cfg: DictConfig) -> tuple[float, float, float]:
 
 
 # ---- training ------------------------------------------------------------------------------------
-def training(cfg: DictConfig, shape: str, model: str) -> tuple[dict[str, Any], dict[str, Any]]:
+def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tuple[dict[str, Any], dict[str, Any]]:
     """The network config of ``models.<model>`` and the training settings of ``train.<shape>`` +
     ``train.common`` for it.
 
+    ``train.model_epochs.<model>``, when set, replaces the shape's epoch count for that model;
     ``train.common.lr``, when set, replaces every shape's learning rate; a ``schedule`` inside the
-    model config (a tuned model) overrides both, being the most specific.  The seed derives from the
-    global seed, the shape and the model, so a sweep trial trains what the stage would.
+    model config (a tuned model) overrides all of these and the ``train.common`` keys, being the most
+    specific.
+    The seed derives from the global seed, the shape, the model and (past the first) the replicate,
+    so a sweep trial trains what the stage's replicate 0 does.
     """
     from toolpath.models.registry import split_schedule
 
     common = cfg.train.common
     network, schedule = split_schedule(plain(cfg.models[model]))
     shared = {"lr": common.lr} if common.get("lr") is not None else {}
-    settings = {**plain(cfg.train[shape]), **shared, **schedule, **_common_training(cfg),
-                "seed": config.seed_for(cfg.seed, "train", shape, model)}
+    epochs = {"epochs": cfg.train.model_epochs[model]} if model in (cfg.train.get("model_epochs") or {}) else {}
+    settings = {**plain(cfg.train[shape]), **epochs, **shared, **_common_training(cfg), **schedule,
+                "seed": config.seed_for(cfg.seed, "train", shape, model, *_replicate_key(replicate))}
     return network, settings
+
+
+def _replicate_key(replicate: int) -> tuple[str, ...]:
+    """Replicate 0 keeps the seed the single-run pipeline had; the others add their number."""
+    return (f"replicate{replicate}",) if replicate else ()
 
 
 def _common_training(cfg: DictConfig) -> dict[str, Any]:
     """The ``train.common`` keys every training run shares (threads and class weights go elsewhere)."""
     common = cfg.train.common
-    return {"patience": common.patience, "weight_decay": common.weight_decay, "augment": common.augment,
-            "aux_loss_weight": common.aux_loss_weight}
+    keys = ("patience", "weight_decay", "augment", "aux_loss_weight", "schedule", "warmup", "clip_grad_norm",
+            "restore_best", "normalise_inputs")
+    return {key: common[key] for key in keys}
 
 
 def qat_training(cfg: DictConfig, shape: str, model: str):

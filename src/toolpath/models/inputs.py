@@ -58,16 +58,32 @@ def turning_features(windows: Tensor) -> Tensor:
 
 
 class Prepare(nn.Module):
-    """The model's input transform as its first layer, so exported graphs include it."""
+    """The model's input transform as its first layer, so exported graphs include it.
+
+    ``scale`` (a buffer, saved with the weights) multiplies each input feature; it is 1 until
+    :meth:`fit_scale` sets it from the training windows.  A rough window's turning terms are
+    0.001-0.07, small enough that a recurrent network's first layer barely moves its state: scaled
+    to unit RMS they reach every architecture at the same scale.
+    """
 
     def __init__(self, inputs: str = "turning") -> None:
         super().__init__()
         if inputs not in INPUTS:
             raise ValueError(f"inputs must be one of {INPUTS}, got {inputs!r}")
         self.inputs = inputs
+        self.register_buffer("scale", torch.ones(2))
+
+    def features(self, windows: Tensor) -> Tensor:
+        return turning_features(windows) if self.inputs == "turning" else prepare(windows)
+
+    @torch.no_grad()
+    def fit_scale(self, windows: Tensor) -> None:
+        """Set ``scale`` to the inverse RMS of each feature over ``windows`` (training data only)."""
+        rms = self.features(windows).pow(2).mean(dim=(0, 1)).sqrt()
+        self.scale.copy_(torch.where(rms > _MIN_SCALE, 1 / rms.clamp_min(_MIN_SCALE), torch.ones_like(rms)))
 
     def forward(self, windows: Tensor) -> Tensor:
-        return turning_features(windows) if self.inputs == "turning" else prepare(windows)
+        return self.features(windows) * self.scale
 
 
 def random_rotation_reflection(windows: Tensor, generator: torch.Generator) -> Tensor:

@@ -3,9 +3,10 @@
 The text fixes the branch structure; the choices it leaves open are made here:
 
 * Each branch starts with its own ``Linear(2, 2)`` on the coordinates, then resamples the window
-  to 50 / 30 / 20 / 10 points by linear interpolation along the sequence (the text's
-  "downsamples"; interpolation keeps the window's ends), then a ReLU linear attention whose
-  output keeps 2 channels (so branch 1 flattens to 100, as the text says), with a residual.
+  to 50 / 30 / 20 / 10 points (the text's "downsamples"): by default by averaging each output's
+  share of the input (``resample: area``), so that the turning terms the label sums all reach
+  every branch; ``resample: linear`` interpolates instead (reads 20 of 50 points at 10); then a
+  ReLU linear attention whose output keeps 2 channels (so branch 1 flattens to 100, as the text says), with a residual.
 * "Fused with" the previous branch: that branch's last hidden vector (MLP 16, CNN 512, RNN 64) is
   broadcast along the sequence and concatenated as channels, as the issue specifies for branch 2,
   and done the same way for branches 3 and 4.
@@ -28,20 +29,28 @@ from torch import Tensor, nn
 from toolpath.models.attention import ReLULinearAttention
 from toolpath.models.inputs import Prepare
 
+RESAMPLING = ("area", "linear")
+
 
 class _Branch(nn.Module):
     """Linear transformation, resampling to ``points``, ReLU linear attention."""
 
-    def __init__(self, points: int, attention_width: int) -> None:
+    def __init__(self, points: int, attention_width: int, resample: str = "area") -> None:
         super().__init__()
-        self.points = points
+        if resample not in RESAMPLING:
+            raise ValueError(f"resample must be one of {RESAMPLING}, got {resample!r}")
+        self.points, self.resample = points, resample
         self.linear = nn.Linear(2, 2)
         self.attention = ReLULinearAttention(2, attention_width)
 
     def forward(self, x: Tensor) -> Tensor:
         y = self.linear(x)
         if y.shape[1] != self.points:
-            y = F.interpolate(y.transpose(1, 2), size=self.points, mode="linear", align_corners=True)
+            y = y.transpose(1, 2)
+            # area: each output averages its share of the input, so every turning term counts;
+            # linear interpolation to 10 points reads 20 of the 50 and drops a spike between them
+            y = F.adaptive_avg_pool1d(y, self.points) if self.resample == "area" else \
+                F.interpolate(y, size=self.points, mode="linear", align_corners=True)
             y = y.transpose(1, 2)
         return self.attention(y)
 
@@ -58,10 +67,10 @@ class MCRL(nn.Module):
                  conv_channels: int = 32, cnn_hidden: int = 512, rnn_hidden: tuple[int, ...] = (128, 64, 64),
                  lstm_hidden: tuple[int, ...] = (64, 32, 32), dropout: float = 0.2, window: int = 50,
                  points: tuple[int, int, int, int] = (50, 30, 20, 10), classes: int = 4,
-                 inputs: str = "turning") -> None:
+                 inputs: str = "turning", resample: str = "area") -> None:
         super().__init__()
         self.prepare = Prepare(inputs)
-        self.branches = nn.ModuleList(_Branch(p, attention_width) for p in points)
+        self.branches = nn.ModuleList(_Branch(p, attention_width, resample) for p in points)
         dims = [points[0] * 2, *mlp_hidden]
         self.mlp = nn.Sequential(*[m for a, b in zip(dims[:-1], dims[1:], strict=True)
                                    for m in (nn.Linear(a, b), nn.ReLU())])

@@ -142,18 +142,20 @@ class _PartitionAttention(nn.Module):
 class MaxViT1d(nn.Module):
     """MaxViT (Tu et al. 2022) in 1-D.
 
-    Stem ``Conv1d(2, dim, 3, stride 2, padding 1)`` (50 -> 25 tokens) plus a learned position
-    embedding; ``depth`` MaxViT blocks of MBConv -> block attention (windows of 5 neighbouring
-    tokens) -> grid attention (5 groups of tokens 5 apart); global average pooling, LayerNorm, head.
+    Stem ``Conv1d(2, dim, 2 patch - 1, stride patch, padding patch - 1)`` (50 -> ceil(50 / patch)
+    tokens: 25 at patch 2, 10 at patch 5) plus a learned position embedding; ``depth`` MaxViT blocks
+    of MBConv -> block attention (windows of ``partition`` neighbouring tokens) -> grid attention
+    (groups of ``partition`` tokens spread evenly over the sequence); global average pooling,
+    LayerNorm, head.
     """
 
     def __init__(self, dim: int = 64, depth: int = 3, heads: int = 4, partition: int = 5, window: int = 50,
-                 classes: int = 4, inputs: str = "turning") -> None:
+                 classes: int = 4, inputs: str = "turning", patch: int = 2) -> None:
         super().__init__()
 
         self.prepare = Prepare(inputs)
-        self.stem = nn.Conv1d(2, dim, 3, stride=2, padding=1)
-        tokens = (window + 1) // 2
+        self.stem = nn.Conv1d(2, dim, 2 * patch - 1, stride=patch, padding=patch - 1)
+        tokens = -(-window // patch)
         if tokens % partition:
             raise ValueError(f"{tokens} tokens do not split into partitions of {partition}")
         self.position = nn.Parameter(torch.zeros(1, tokens, dim))

@@ -24,7 +24,7 @@ from toolpath.reports import classify_figures, corner_report, sequencing, smooth
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import table4
-from toolpath.reports.tables import Table, categories_table, table2, table3
+from toolpath.reports.tables import Table, categories_table, corpus_table, table2, table3
 from toolpath.seeds import seed_for
 
 
@@ -103,7 +103,7 @@ class Report:
         require(list(timing.values()), "train")
         runs = {}
         for s in self.shapes:
-            seconds = {m: read_json(timing[(s, m)])["train_seconds"] for m in self.learned}
+            seconds = {m: sum(read_json(timing[(s, m)])["train_seconds"]) for m in self.learned}  # over the seeds
             runs[s] = {"all_seconds": sum(seconds.values())}
             if "mcrl" in seconds:
                 runs[s] |= {"mcrl_seconds": seconds["mcrl"], "mcrl_epochs": metrics[s]["mcrl"]["epochs_run"]}
@@ -112,7 +112,7 @@ class Report:
 
     def performance(self) -> str:
         metrics = self.train_metrics()
-        tables = [table3(s, {m: metrics[s][m]["test"] for m in metrics[s]}) for s in self.shapes]
+        tables = [table3(s, {m: metrics[s][m]["replicates"] for m in metrics[s]}) for s in self.shapes]
         self.summaries["table3"] = summary.table3_summary(metrics)
         return self.table(tables, "table3_metrics")
 
@@ -145,6 +145,8 @@ class Report:
             parts.append(f"MCRL trained on all three shapes, on the real G-code of the corpus (labelled by the rule): "
                          f"accuracy {real['metrics']['accuracy']:.3f}, macro F1 {real['metrics']['f1']:.3f}, "
                          f"majority-class accuracy {real['majority_accuracy']:.3f}.\n")
+            if "by_origin" in real:
+                parts.append(self.table(corpus_table(real["by_origin"]), "table15_real_gcode"))
         elif "skipped" in real:
             parts.append(f"Real G-code: {real['skipped']}.\n")
         return "\n".join(parts)

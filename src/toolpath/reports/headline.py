@@ -12,7 +12,6 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from toolpath.artifacts import Layout
-from toolpath.training.metrics import degenerate
 
 PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 
@@ -39,11 +38,18 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
             found = _load(layout.train_metrics(shape, model))
             if found is None:
                 continue
-            if degenerate(found["test"]):  # flagged, never scored
-                metrics[f"table3.{shape}.{model}.degenerate"] = 1.0
+            seeds = found["replicates"]
+            if seeds["degenerate"]:  # flagged; an all-degenerate model is never scored
+                metrics[f"table3.{shape}.{model}.degenerate_seeds"] = float(seeds["degenerate"])
+            if seeds["degenerate"] == seeds["replicates"]:
                 continue
-            accuracy[model] = found["test"]["accuracy"]
-            metrics[f"table3.{shape}.{model}.test_accuracy"] = found["test"]["accuracy"]
+            figure = seeds["test"]["accuracy"]
+            accuracy[model] = figure["mean"]
+            metrics[f"table3.{shape}.{model}.test_accuracy"] = figure["mean"]
+            if figure["sd"] is not None:
+                metrics[f"table3.{shape}.{model}.test_accuracy_sd"] = figure["sd"]
+            for k, value in enumerate(figure["values"]):
+                metrics[f"table3.{shape}.{model}.test_accuracy_seed{k}"] = value
         learned = {m: a for m, a in accuracy.items() if m != "rule"}
         if learned:
             tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)

@@ -7,34 +7,46 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from toolpath.reports.paper import PAPER_REDUCTION, TABLE3
-from toolpath.training.metrics import DEGENERATE, degenerate
+from toolpath.training.metrics import DEGENERATE
 
 HEADLINE = "fig8_methods"
 
 
 def table3_summary(metrics: Mapping[str, Mapping[str, Mapping]]) -> str:
-    """Per shape: MCRL's test accuracy / macro F1 beside the paper's, the best learned model, the rule."""
-    lines = ["| shape | MCRL accuracy / F1 (paper) | best learned model by F1 | exact rule accuracy |",
-             "|---|---|---|---|"]
+    """Per shape: MCRL's test accuracy / macro F1 (mean +- sd over the training seeds) beside the
+    paper's, the best learned model by mean F1, the rule."""
+    from toolpath.training.replicates import describe
+
+    lines = ["| shape | MCRL accuracy / F1, mean +- sd over seeds (paper) | best learned model by F1 | "
+             "exact rule accuracy |", "|---|---|---|---|"]
     for shape, models in metrics.items():
-        learned = {m: v["test"] for m, v in models.items() if m != "rule"}
+        learned = {m: v["replicates"] for m, v in models.items() if m != "rule"}
         if not learned:
             continue
-        scored = {m: v for m, v in learned.items() if not degenerate(v)}
-        best = max(scored, key=lambda m: scored[m]["f1"]) if scored else None
+        scored = {m: v for m, v in learned.items() if v["degenerate"] < v["replicates"]}
+        best = max(scored, key=lambda m: scored[m]["test"]["f1"]["mean"]) if scored else None
         mcrl = learned.get("mcrl")
         paper = TABLE3.get(shape, {}).get("mcrl")
         paper_cell = f" ({paper[0]:.1f} % / {paper[4]:.1f} %)" if paper else ""
         if mcrl is None:
             mcrl_cell = "-"
-        elif degenerate(mcrl):
+        elif "mcrl" not in scored:
             mcrl_cell = DEGENERATE + paper_cell
         else:
-            mcrl_cell = f"{100 * mcrl['accuracy']:.1f} % / {100 * mcrl['f1']:.1f} %" + paper_cell
-        best_cell = f"{best} {100 * scored[best]['accuracy']:.1f} % / {100 * scored[best]['f1']:.1f} %" if best else "-"
+            note = describe(mcrl)
+            mcrl_cell = (f"{_spread(mcrl['test']['accuracy'])} / {_spread(mcrl['test']['f1'])}" + paper_cell
+                         + (f", {note}" if note else ""))
+        best_cell = (f"{best} {_spread(scored[best]['test']['accuracy'])} / {_spread(scored[best]['test']['f1'])}"
+                     if best else "-")
         rule = models.get("rule", {}).get("test", {}).get("accuracy")
         lines.append(f"| {shape} | {mcrl_cell} | {best_cell} | {f'{100 * rule:.1f} %' if rule is not None else '-'} |")
     return "\n".join(lines) + "\n"
+
+
+def _spread(figure: Mapping) -> str:
+    """A mean +- sd figure in per cent."""
+    sd = figure.get("sd")
+    return f"{100 * figure['mean']:.1f}" + (f" +- {100 * sd:.1f}" if sd is not None else "") + " %"
 
 
 def table6_summary(metrics: Mapping[str, Mapping]) -> str:

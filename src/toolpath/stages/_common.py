@@ -28,11 +28,11 @@ def clean_dir(path: Path) -> Path:
     return path
 
 
-def progress(items: list[T], label: str) -> Iterator[T]:
-    """Iterate with a rich progress bar on stderr."""
+def progress(items: Iterable[T], label: str, total: int | None = None) -> Iterator[T]:
+    """Iterate with a rich progress bar on stderr (``total``: for items without a length)."""
     columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, transient=False) as bar:
-        task = bar.add_task(label, total=len(items))
+        task = bar.add_task(label, total=len(items) if total is None else total)
         for item in items:
             yield item
             bar.advance(task)

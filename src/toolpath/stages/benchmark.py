@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> None:
 
     def fp32(shape: str, name: str) -> torch.nn.Module:
         path = layout.checkpoint(shape, name)
-        return from_checkpoint(artifacts.load_checkpoint(path, f"train@{shape}-{name}")).network_.eval()
+        return from_checkpoint(artifacts.load_checkpoint(path, f"train@{shape}")).network_.eval()
 
     def int8(shape: str, name: str) -> torch.nn.Module | None:
         path = layout.int8_model(shape, name)
@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> None:
                 entry["int8_missing"] = f"{int8_path} not found (see {layout.qat_metrics(shapes[0])})"
             result["models"][name] = entry
         rule_file = layout.checkpoint(shapes[0], "rule")
-        rule = from_checkpoint(artifacts.load_checkpoint(rule_file, f"train@{shapes[0]}-rule"))
+        rule = from_checkpoint(artifacts.load_checkpoint(rule_file, f"train@{shapes[0]}"))
         result["rule"] = bench_rule(rule, shapes, tests, inputs, bcfg)
         if "mcrl" in bcfg["models"]:
             result["mcrl_branch_profile_ms"] = {k: 1e3 * v for k, v in

@@ -18,8 +18,9 @@ from toolpath import artifacts, config, settings, tracking
 from toolpath.artifacts import Split
 from toolpath.gcode import GCodeError, ReaderOptions, read_file
 from toolpath.labels import label_program
+from toolpath.labels.windows import arc_share
 from toolpath.training.classifier import TorchClassifier, from_checkpoint, to_checkpoint
-from toolpath.training.generalise import best_by_validation, cross_shape_matrix
+from toolpath.training.generalise import best_by_validation, corpus_report, cross_shape_matrix
 from toolpath.training.metrics import classification_metrics
 
 GCODE_SUFFIXES = {".nc", ".ngc", ".gcode", ".tap", ".cnc", ".txt"}
@@ -33,19 +34,22 @@ def corpus_windows(folder: Path, options: ReaderOptions, size: int, stride: int,
     files, windows = {}, []
     for path in sorted(p for p in folder.iterdir() if p.suffix.lower() in GCODE_SUFFIXES):
         try:
-            w = label_program(read_file(path, options), size, stride, bounds)
+            program = read_file(path, options)
+            w = label_program(program, size, stride, bounds)
         except GCodeError as exc:
             files[path.name] = {"skipped": exc.message, "line": exc.line}
             continue
-        files[path.name] = {"windows": len(w), "class_count": np.bincount(w.label, minlength=5)[1:].tolist()}
-        windows.append((w.windows, w.label))
+        arcs = arc_share(program, size, stride)
+        files[path.name] = {"windows": len(w), "class_count": np.bincount(w.label, minlength=5)[1:].tolist(),
+                            "arc_windows": int((arcs > 0.5).sum())}
+        windows.append((w.windows, w.label, arcs))
     return {"files": files}, windows
 
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     across, common, layout = cfg.generalise, cfg.train.common, settings.layout(cfg)
-    torch.set_num_threads(common.threads)
+    torch.set_num_threads(across.threads)
     torch.use_deterministic_algorithms(True)
     data = {s: artifacts.load_windows(layout.windows_file(s), s) for s in cfg.shapes}
     tests = {s: d.part(Split.TEST) for s, d in data.items()}
@@ -57,7 +61,7 @@ def main(argv: list[str] | None = None) -> None:
 
         result = {"best_baseline": best, "baseline_val_accuracy": val_acc, "cross_shape": {}}
         for name in (across.model, best):
-            clfs = {s: from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(s, name), f"train@{s}-{name}"))
+            clfs = {s: from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(s, name), f"train@{s}"))
                     for s in cfg.shapes}
             result["cross_shape"][name] = cross_shape_matrix(clfs, tests)
         stack = {split.label: tuple(np.concatenate([d.part(split)[i] for d in data.values()]) for i in (0, 1))
@@ -69,9 +73,11 @@ def main(argv: list[str] | None = None) -> None:
         summary, real = corpus_windows(layout.corpus, settings.reader_options(cfg), cfg.label.window,
                                        cfg.label.stride, settings.bounds(cfg))
         if real:
-            X, y = np.concatenate([w for w, _ in real]), np.concatenate([lab for _, lab in real])
-            summary["metrics"] = classification_metrics(y, clf.predict_proba(X))
+            X, y, arcs = (np.concatenate([part[k] for part in real]) for k in range(3))
+            proba = clf.predict_proba(X)
+            summary["metrics"] = classification_metrics(y, proba)
             summary["majority_accuracy"] = float(np.bincount(y).max() / len(y))
+            summary["by_origin"] = corpus_report(y, proba, arcs)
         result["real_gcode"] = summary
         artifacts.write_json(result, layout.generalise_metrics)
         mlflow.log_metrics({k: v for k, v in config.flat(result).items()
@@ -79,12 +85,13 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def _val_accuracy(path: Path, shape: str, model: str) -> float:
-    """Validation accuracy from a train metrics file, or exit naming the file and the stage to rerun."""
-    metrics = artifacts.read_json(path, f"train@{shape}-{model}")
+    """Validation accuracy (mean over the training seeds) from a train metrics file, or exit naming the
+    file and the stage to rerun."""
+    metrics = artifacts.read_json(path, f"train@{shape}")
     try:
-        return float(metrics["val"]["accuracy"])
+        return float(metrics["replicates"]["val"]["accuracy"]["mean"] or 0.0)  # None: every seed degenerate
     except (KeyError, TypeError, ValueError) as exc:
-        raise artifacts.ArtifactError(path, f"malformed train metrics ({exc!r})", f"train@{shape}-{model}") from None
+        raise artifacts.ArtifactError(path, f"malformed train metrics ({exc!r})", f"train@{shape}") from None
 
 
 if __name__ == "__main__":

@@ -21,7 +21,6 @@ import numpy as np
 import torch
 
 from toolpath import artifacts, config, settings, tracking
-from toolpath.shapes.synth import SHAPES
 from toolpath.stages._common import clean_dir, progress, shape_arg
 from toolpath.training.qat import quantize_one
 
@@ -52,8 +51,8 @@ def training_parts(data: artifacts.WindowSet, subset: int | None, seed: int) -> 
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = shape_arg(__doc__.split("\n")[0], argv, SHAPES)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     qcfg, layout = settings.plain(cfg.qat), settings.layout(cfg)
     torch.set_num_threads(cfg.train.common.threads)
     torch.use_deterministic_algorithms(True)
@@ -67,7 +66,7 @@ def main(argv: list[str] | None = None) -> None:
 
         jobs, fp32_tests = [], {}
         for name in qcfg["models"]:
-            producer = f"train@{args.shape}-{name}"
+            producer = f"train@{args.shape}"
             fp32_tests[name] = artifacts.read_json(layout.train_metrics(args.shape, name), producer)["test"]
             threads = max(1, cfg.train.common.threads // qcfg["workers"])
             jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,

@@ -1,66 +1,85 @@
-"""Train one model on one shape and evaluate it on the held-out test programs.
+"""Train every model of ``train.models`` on one shape, ``train.replicates`` times each with its own
+seed, and evaluate every run on the held-out test programs.
 
-Run: python -m toolpath.stages.train --shape gear --model mcrl
+Run: python -m toolpath.stages.train --shape gear
 
-Writes the checkpoint, the test and validation metrics (deterministic for a seed), the per-epoch
-curves (Figs. 6-7) and the wall time, at the paths of :class:`toolpath.artifacts.Layout`.
+Per model, at the paths of :class:`toolpath.artifacts.Layout`: the checkpoint of replicate 0, the
+metrics (replicate 0's, and mean / sd / per-seed values over the replicates), its per-epoch curves
+(Figs. 6-7) and the wall time.  One process per shape: the runs go to ``train.workers`` worker
+processes, so the pipeline does not pay interpreter and MLflow start-up once per model.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 from pathlib import Path
 
-import torch
-
 from toolpath import artifacts, config, settings, tracking
-from toolpath.models import MODEL_NAMES
-from toolpath.shapes.synth import SHAPES
-from toolpath.training.classifier import fit_and_score, to_checkpoint
-from toolpath.training.progress import EpochBar
+from toolpath.models.registry import parameter_count
+from toolpath.stages._common import progress, shape_arg
+from toolpath.training import replicates
 
 PLOT_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val_accuracy")
 
 
-def _parse(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--shape", required=True, choices=SHAPES)
-    parser.add_argument("--model", required=True, choices=MODEL_NAMES)
-    return parser.parse_args(argv)
-
-
 def main(argv: list[str] | None = None) -> None:
-    args = _parse(argv)
     cfg = config.load()
+    args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     layout, common = settings.layout(cfg), cfg.train.common
-    torch.set_num_threads(common.threads)
-    torch.use_deterministic_algorithms(True)
     data = artifacts.load_windows(layout.windows_file(args.shape), args.shape)
-    parts = data.parts()
     programs = {s.label: data.program[data.split == s] for s in artifacts.Split}
-    network, train_settings = settings.training(cfg, args.shape, args.model)
-    name = f"{args.shape}-{args.model}"
-    params = {**config.flat(network, "model"), **config.flat(train_settings, "train"),
-              "class_weight": common.class_weight}
-    with tracking.stage_run(f"train@{name}", params, shape=args.shape, model=args.model):
-        import mlflow
+    jobs = [replicates.Job(model, r, *settings.training(cfg, args.shape, model, r), common.class_weight)
+            for model in cfg.train.models for r in range(cfg.train.replicates if _learned(cfg, model) else 1)]
+    jobs = replicates.job_order(jobs, lambda j: _cost(j, cfg))
+    outcomes: dict[str, list[replicates.Outcome]] = {m: [] for m in cfg.train.models}
+    with tracking.stage_run(f"train@{args.shape}", {"replicates": cfg.train.replicates,
+                                                   "workers": common.workers, "threads": common.threads},
+                            shape=args.shape):
+        runs = replicates.run_all(jobs, data.parts(), programs, common.workers, common.threads)
+        for outcome in progress(runs, f"train {args.shape}", total=len(jobs)):
+            outcomes[outcome.job.model].append(outcome)
+            if len(outcomes[outcome.job.model]) == (cfg.train.replicates if _learned(cfg, outcome.job.model) else 1):
+                _save_model(cfg, layout, args.shape, outcome.job.model, outcomes[outcome.job.model], programs)
 
-        with EpochBar(name, train_settings.get("epochs", 0) if args.model != "rule" else 0) as bar:
-            clf, metrics, history, seconds = fit_and_score(network, train_settings, common.class_weight, parts,
-                                                           on_epoch=bar.update, programs=programs)
-        artifacts.write_json(metrics, layout.train_metrics(args.shape, args.model))
-        _write_curves(history, layout.train_curves(args.shape, args.model))
-        artifacts.write_json({"train_seconds": seconds, "threads": common.threads},
-                             layout.train_timing(args.shape, args.model))
-        checkpoint = layout.checkpoint(args.shape, args.model)
-        artifacts.save_checkpoint(to_checkpoint(clf), checkpoint)
-        for record in history:
+
+def _learned(cfg, model: str) -> bool:
+    from toolpath.models.registry import is_learned
+
+    return is_learned(cfg.models[model])
+
+
+def _cost(job: replicates.Job, cfg) -> float:
+    """Parameters x epochs: enough to run the big models first."""
+    from toolpath.models.registry import build
+
+    return parameter_count(build(job.network)) * float(job.settings.get("epochs", 0)) if _learned(cfg, job.model) else 0
+
+
+def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: list, programs: dict) -> None:
+    import mlflow
+
+    runs = sorted(runs, key=lambda o: o.job.replicate)
+    first = runs[0]
+    summary = replicates.summarise(runs, programs["test"], config.seed_for(cfg.seed, "bootstrap", shape, model))
+    metrics = {**first.metrics, "replicates": summary}
+    artifacts.write_json(metrics, layout.train_metrics(shape, model))
+    _write_curves(first.history, layout.train_curves(shape, model))
+    artifacts.write_json({"train_seconds": [o.seconds for o in runs], "threads": cfg.train.common.threads},
+                         layout.train_timing(shape, model))
+    checkpoint = layout.checkpoint(shape, model)
+    artifacts.save_checkpoint(first.checkpoint, checkpoint)
+    params = {**config.flat(first.job.network, "model"), **config.flat(first.job.settings, "train")}
+    stage = mlflow.active_run()
+    with mlflow.start_run(run_name=f"train@{shape}-{model}", nested=True, experiment_id=stage.info.experiment_id,
+                          tags={**{k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")},
+                                "shape": shape, "model": model}):
+        mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
+        for record in first.history:
             # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure
-            mlflow.log_metrics({k: v for k, v in vars(record).items() if k != "epoch"},
-                               step=record.epoch)
-        mlflow.log_metrics({k: v for k, v in config.flat(metrics).items() if isinstance(v, int | float)})
-        mlflow.log_metric("train_seconds", seconds)
+            mlflow.log_metrics({k: v for k, v in vars(record).items() if k != "epoch"}, step=record.epoch)
+        mlflow.log_metrics({k: v for k, v in config.flat(metrics).items()
+                            if isinstance(v, int | float) and not isinstance(v, bool)})
+        mlflow.log_metric("train_seconds", sum(o.seconds for o in runs))
         # the report stage draws the confusion matrices; MLflow keeps the numbers
         mlflow.log_dict({"confusion_test": metrics["test"]["confusion"]}, "confusion_test.json")
         mlflow.log_artifact(str(checkpoint))

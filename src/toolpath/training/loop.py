@@ -1,9 +1,15 @@
-"""The training loop behind every learned model: Adam, staircase exponential decay, cross-entropy.
+"""The training loop behind every learned model: Adam, a learning-rate schedule, cross-entropy.
 
-Eq. 29 (categorical cross-entropy) is ``F.cross_entropy`` on logits; the learning rate follows
-``lr * decay_rate ** floor(step / decay_steps)`` per optimiser step (Table 2's "decay rate" and
-"decay steps").  Early stopping on validation loss restores the best epoch's weights.  Every
-random choice (initialisation, shuffling, dropout, augmentation) draws from ``seed``.
+Eq. 29 (categorical cross-entropy) is ``F.cross_entropy`` on logits.  Two schedules:
+
+* ``step`` (Table 2): ``lr * decay_rate ** floor(step / decay_steps)`` per optimiser step (the
+  paper's "decay rate" and "decay steps"); with few epochs the staircase never fires.
+* ``onecycle``: warm-up over the first ``warmup`` share of the steps actually run, then cosine
+  annealing to ~0 (torch's ``OneCycleLR``): a schedule scaled to the run, whatever its length.
+
+Gradients are clipped to ``clip_grad_norm`` (global 2-norm) when set.  With ``restore_best`` the
+weights of the epoch with the lowest validation loss are restored at the end; ``patience`` stops
+early.  Every random choice (initialisation, shuffling, dropout, augmentation) draws from ``seed``.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from toolpath.models.inputs import random_rotation_reflection
+from toolpath.models.inputs import Prepare, random_rotation_reflection
 
 
 @dataclass(frozen=True)
@@ -33,6 +39,11 @@ class TrainSettings:
     weight_decay: float = 0.0
     augment: bool = False  # random rotation / reflection of training windows
     aux_loss_weight: float = 0.0  # MCRL only: weight of the per-branch auxiliary losses
+    schedule: str = "step"  # "step" (Table 2's staircase) or "onecycle" (warm-up, cosine decay)
+    warmup: float = 0.3  # onecycle: share of the steps spent warming up
+    clip_grad_norm: float | None = None  # clip the global gradient norm to this (None: no clipping)
+    restore_best: bool = False  # end with the weights of the best-validation-loss epoch
+    normalise_inputs: bool = False  # scale each input feature to unit RMS over the training windows
     seed: int = 0
 
 
@@ -74,6 +85,20 @@ def _evaluate(net: nn.Module, X: torch.Tensor, y: torch.Tensor, weight: torch.Te
     return float(F.cross_entropy(logits, y, weight=weight)), float((logits.argmax(1) == y).float().mean())
 
 
+SCHEDULES = ("step", "onecycle")
+
+
+def _scheduler(optimiser: torch.optim.Optimizer, settings: TrainSettings, steps: int):
+    """The per-step learning-rate schedule ``settings.schedule`` names (module docstring)."""
+    if settings.schedule == "step":
+        return torch.optim.lr_scheduler.StepLR(optimiser, step_size=settings.decay_steps, gamma=settings.decay_rate)
+    if settings.schedule == "onecycle":
+        return torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=settings.lr, total_steps=max(steps, 1),
+                                                   pct_start=settings.warmup, anneal_strategy="cos",
+                                                   cycle_momentum=False)
+    raise ValueError(f"train schedule must be one of {SCHEDULES}, got {settings.schedule!r}")
+
+
 def fit_network(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings,
                 X_val: np.ndarray | None = None, y_val: np.ndarray | None = None,
                 class_weight: np.ndarray | None = None,
@@ -85,8 +110,10 @@ def fit_network(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSet
     Xv = torch.as_tensor(X_val if has_val else np.zeros((0, *X.shape[1:])), dtype=torch.float32)
     yv = torch.as_tensor(y_val if has_val else np.zeros(0), dtype=torch.long)
     weight = None if class_weight is None else torch.as_tensor(class_weight, dtype=torch.float32)
+    if settings.normalise_inputs and isinstance(getattr(net, "prepare", None), Prepare):
+        net.prepare.fit_scale(Xt)
     optimiser = torch.optim.Adam(net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay)
-    schedule = torch.optim.lr_scheduler.StepLR(optimiser, step_size=settings.decay_steps, gamma=settings.decay_rate)
+    schedule = _scheduler(optimiser, settings, steps=settings.epochs * -(-len(Xt) // settings.batch_size))
     history: list[EpochRecord] = []
     best_loss, best_state, stale = float("inf"), None, 0
     for epoch in range(1, settings.epochs + 1):
@@ -104,8 +131,10 @@ def fit_network(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSet
                 loss, logits = _loss(net, xb, yb, weight, settings.aux_loss_weight)
                 optimiser.zero_grad(set_to_none=True)
                 loss.backward()
+            if settings.clip_grad_norm is not None:
+                nn.utils.clip_grad_norm_(net.parameters(), settings.clip_grad_norm)
             optimiser.step()
-            schedule.step()  # per optimiser step: the staircase of Table 2
+            schedule.step()  # per optimiser step, as Table 2's decay steps count
             total += float(loss.detach()) * len(idx)
             correct += int((logits.argmax(1) == yb).sum())
             seen += len(idx)
@@ -114,12 +143,12 @@ def fit_network(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSet
         history.append(record)
         if on_epoch is not None:
             on_epoch(record)
-        if has_val and settings.patience is not None:
+        if has_val and (settings.patience is not None or settings.restore_best):
             if val_loss < best_loss - 1e-6:
                 best_loss, best_state, stale = val_loss, copy.deepcopy(net.state_dict()), 0
             else:
                 stale += 1
-                if stale >= settings.patience:
+                if settings.patience is not None and stale >= settings.patience:
                     break
     if best_state is not None:
         net.load_state_dict(best_state)

@@ -103,9 +103,10 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
               on_epoch: Callable[[EpochRecord], None] | None = None) -> QATResult:
     """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
 
-    ``settings`` is the FP32 schedule (learning rate, decay, batch) with the QAT epoch count; early
-    stopping is off (a restored best state would mix observer states).  Observers freeze after
-    epoch ``epochs - freeze_last``.
+    ``settings`` is the FP32 schedule (learning rate, batch) with the QAT epoch count, run as a
+    fine-tune on Table 2's staircase (about constant over QAT's few steps): no warm-up, no clipping,
+    no early stopping or best-state restore (a restored state would mix observer states).
+    Observers freeze after epoch ``epochs - freeze_last``.
     """
     if not 0 <= freeze_last < settings.epochs:
         raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
@@ -118,7 +119,8 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
         if on_epoch is not None:
             on_epoch(record)
 
-    fixed = TrainSettings(**{**settings.__dict__, "patience": None, "aux_loss_weight": 0.0})
+    fixed = TrainSettings(**{**settings.__dict__, "patience": None, "aux_loss_weight": 0.0, "schedule": "step",
+                             "clip_grad_norm": None, "restore_best": False, "normalise_inputs": False})
     history = fit_network(prepared, X, y, fixed, X_val, y_val, on_epoch=hook)
     return QATResult(convert(prepared), history)
 

@@ -1,0 +1,126 @@
+"""One training configuration under several seeds: the spread behind every Table 3 figure.
+
+A result that moves with the initialisation is not a result: each model is trained ``replicates``
+times with seeds derived from its name, the figures are reported as mean and standard deviation
+over those runs, and the accuracy interval is a bootstrap over test *programs* of the per-window
+correctness averaged over the seeds.  Replicate 0 is the checkpoint the later stages use (QAT,
+inference); its own metrics stay under ``test`` / ``val``.
+
+The runs are independent, so :func:`run_all` spreads them over worker processes (one torch thread
+each: results depend on the thread count, so it is fixed, never "whatever is free").
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from toolpath.training.metrics import DEGENERATE, degenerate, program_bootstrap
+
+SCALARS = ("accuracy", "loss", "precision", "recall", "f1", "auc")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One training run: a model config, its settings (with the replicate's seed) and its replicate number."""
+
+    model: str
+    replicate: int
+    network: Mapping[str, Any]
+    settings: Mapping[str, Any]
+    class_weight: str | None = None
+
+
+@dataclass
+class Outcome:
+    """What one run gives back: its checkpoint, metrics, per-epoch history, seconds and, per test
+    window, whether the prediction was right (for the program bootstrap of the seed mean)."""
+
+    job: Job
+    checkpoint: dict
+    metrics: dict
+    history: list
+    seconds: float
+    test_correct: np.ndarray
+
+
+_DATA: dict[str, Any] = {}
+
+
+def _init(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], programs: Mapping[str, np.ndarray], threads: int) -> None:
+    import torch
+
+    torch.set_num_threads(threads)
+    torch.use_deterministic_algorithms(True)
+    _DATA.update(parts=parts, programs=programs)
+
+
+def _run(job: Job) -> Outcome:
+    from toolpath.training.classifier import fit_and_score, to_checkpoint
+
+    parts = _DATA["parts"]
+    clf, metrics, history, seconds = fit_and_score(job.network, job.settings, job.class_weight, parts,
+                                                   programs=_DATA["programs"])
+    correct = clf.predict(parts["test"][0]) == parts["test"][1]
+    return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct)
+
+
+def run_all(jobs: Sequence[Job], parts: Mapping[str, tuple[np.ndarray, np.ndarray]],
+            programs: Mapping[str, np.ndarray], workers: int = 1, threads: int = 1) -> Iterator[Outcome]:
+    """Run every job, ``workers`` at a time (in this process when 1), yielding outcomes as they
+    finish.  Each run's result depends only on its job and ``threads``, never on the schedule."""
+    if workers <= 1:
+        _init(parts, programs, threads)
+        yield from map(_run, jobs)
+        return
+    # spawn, not fork: a forked torch with live OpenMP threads can hang
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_init,
+                             initargs=(parts, programs, threads)) as pool:
+        futures = [pool.submit(_run, job) for job in jobs]
+        from concurrent.futures import as_completed
+
+        yield from (future.result() for future in as_completed(futures))
+
+
+def summarise(outcomes: Sequence[Outcome], test_programs: np.ndarray, seed: int) -> dict:
+    """Mean, standard deviation (ddof 1) and per-seed values of every Table 3 scalar over the
+    replicates, how many replicates predicted one class only, and the program bootstrap of the
+    seed-mean accuracy.  A degenerate replicate is counted, and its figures are left out of the
+    mean: the figures describe the models that learned something."""
+    ordered = sorted(outcomes, key=lambda o: o.job.replicate)
+    learned = [o for o in ordered if not degenerate(o.metrics["test"])]
+    summary: dict[str, Any] = {"seeds": [int(o.job.settings.get("seed", 0)) for o in ordered],
+                               "degenerate": len(ordered) - len(learned), "replicates": len(ordered),
+                               "degenerate_replicates": [o.job.replicate for o in ordered if o not in learned]}
+    for split in ("val", "test"):
+        figures = {}
+        for key in SCALARS:
+            values = [o.metrics[split][key] for o in ordered]
+            kept = np.array([o.metrics[split][key] for o in learned if o.metrics[split][key] is not None], float)
+            figures[key] = {"mean": float(kept.mean()) if len(kept) else None,
+                            "sd": float(kept.std(ddof=1)) if len(kept) > 1 else None, "values": values}
+        summary[split] = figures
+    if learned:
+        correct = np.mean([o.test_correct for o in learned], axis=0)
+        summary["accuracy_ci"] = program_bootstrap(correct, test_programs, seed)
+    return summary
+
+
+def describe(summary: Mapping[str, Any]) -> str | None:
+    """How a table shows a model none or only some of whose replicates learned (None: all did)."""
+    if summary["degenerate"] == 0:
+        return None
+    if summary["degenerate"] == summary["replicates"]:
+        return DEGENERATE
+    return f"{DEGENERATE} in {summary['degenerate']} of {summary['replicates']} seeds"
+
+
+def job_order(jobs: Sequence[Job], cost: Callable[[Job], float]) -> list[Job]:
+    """Longest first, so two workers finish together instead of one waiting on the last big run."""
+    return sorted(jobs, key=lambda j: (-cost(j), j.model, j.replicate))
