@@ -37,8 +37,12 @@ def _targets(node, path: str = ""):
 
 @pytest.mark.parametrize("experiment", [None, *sorted(p.stem for p in (REPO / "conf" / "experiment").glob("*.yaml"))])
 def test_every_target_in_every_profile_instantiates_so_no_key_is_unused(tmp_path, experiment):
-    """A node with ``_target_`` is built with every key as an argument: a dead or misspelt key fails."""
+    """A node with ``_target_`` is built with every key as an argument: a dead or misspelt key fails.
+    A model's ``schedule`` (a tuned model) is training settings: its keys must be training settings."""
     from hydra.utils import instantiate
+
+    from toolpath.models.registry import split_schedule
+    from toolpath.training.loop import TrainSettings
 
     overrides = [f"+experiment={experiment}"] if experiment else []
     cfg = OmegaConf.load(config.compose(overrides, root=REPO, output=tmp_path / "p.yaml"))
@@ -46,6 +50,9 @@ def test_every_target_in_every_profile_instantiates_so_no_key_is_unused(tmp_path
     expected = {"gcode.read", "gcode.write", "feedrate.machine", "corner.pso", "optimize.nacoa", "models.mcrl"}
     assert expected <= set(found)
     for path, node in found.items():
+        if path.startswith("models."):
+            node, schedule = split_schedule(node)
+            TrainSettings(**schedule)  # an unknown key fails here
         try:
             instantiate(node, _convert_="all")
         except Exception as exc:  # noqa: BLE001 - the message names the node

@@ -29,7 +29,7 @@ def test_mean_and_sample_sd_over_seeds_by_hand():
     two_wrong[6] = 4  # 6 of 8
     s = summary_of(right, one_wrong, two_wrong)
     acc = s["test"]["accuracy"]
-    assert acc["values"] == [1.0, 0.875, 0.75]
+    assert acc["per_seed"] == {"seed0": 1.0, "seed1": 0.875, "seed2": 0.75}
     assert acc["mean"] == pytest.approx(0.875) and acc["sd"] == pytest.approx(0.125)  # ddof 1
     assert s["seeds"] == [100, 101, 102] and s["degenerate"] == 0 and describe(s) is None
     ci = s["accuracy_ci"]  # over the 4 programs, of the per-window mean correctness
@@ -41,7 +41,7 @@ def test_a_degenerate_seed_is_counted_and_left_out_of_the_mean():
     s = summary_of(Y, majority, Y)
     assert s["degenerate"] == 1 and s["degenerate_replicates"] == [1]
     assert s["test"]["accuracy"]["mean"] == 1.0 and s["test"]["accuracy"]["sd"] == 0.0
-    assert s["test"]["accuracy"]["values"][1] == pytest.approx(0.5)  # still on record
+    assert s["test"]["accuracy"]["per_seed"]["seed1"] == pytest.approx(0.5)  # still on record
     assert describe(s) == f"{DEGENERATE} in 1 of 3 seeds"
     everything = summary_of(majority, majority)
     assert describe(everything) == DEGENERATE and everything["test"]["accuracy"]["mean"] is None

@@ -22,7 +22,7 @@ SHAPES = ("gear", "pentagram", "maple_leaf")
 def _metrics(accuracy: float) -> dict:
     confusion = [[5, 1, 0, 0], [0, 3, 0, 0], [0, 0, 2, 1], [0, 0, 0, 4]]
     test = {"accuracy": accuracy, "loss": 0.5, "precision": 0.7, "recall": 0.6, "f1": 0.65, "auc": 0.9}
-    seeds = {key: {"mean": value, "sd": None, "values": [value]} for key, value in test.items()}
+    seeds = {key: {"mean": value, "sd": None, "per_seed": {"seed0": value}} for key, value in test.items()}
     return {"epochs_run": 2, "test": {**test, "confusion": confusion},
             "replicates": {"seeds": [1], "degenerate": 0, "replicates": 1, "test": seeds, "val": seeds}}
 

@@ -75,8 +75,9 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     assert metrics["epochs_run"] == 2
     seeds = metrics["replicates"]  # the smoke profile's 2 seeds, replicate 0's figure among them
     assert seeds["replicates"] == 2 and len(set(seeds["seeds"])) == 2
-    assert seeds["test"]["accuracy"]["values"][0] == metrics["test"]["accuracy"]
-    kept = [v for k, v in enumerate(seeds["test"]["accuracy"]["values"]) if k not in seeds["degenerate_replicates"]]
+    per_seed = seeds["test"]["accuracy"]["per_seed"]
+    assert per_seed["seed0"] == metrics["test"]["accuracy"]
+    kept = [per_seed[f"seed{k}"] for k in range(2) if k not in seeds["degenerate_replicates"]]
     assert seeds["test"]["accuracy"]["mean"] == (pytest.approx(np.mean(kept)) if kept else None)
     windows = np.load(smoke_dir / "data/windows/maple_leaf.npz")
     test_programs = len(np.unique(windows["program"][windows["split"] == 2]))

@@ -24,7 +24,8 @@ from toolpath.sweep.__main__ import main as sweep_main
 
 SMOKE = ["+experiment=smoke"]
 # the smoke windows train in a second; a short epoch range keeps the trials short too
-SWEEP = [*SMOKE, "sweep.space.epochs.low=1", "sweep.space.epochs.high=3", "sweep.space.epochs.step=1"]
+SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.space.epochs.low=1", "sweep.space.epochs.high=3",
+         "sweep.space.epochs.step=1"]
 
 
 @pytest.fixture(scope="module")
@@ -88,9 +89,9 @@ def _trial_runs(study, uri=None):
 
 
 def test_smoke_sweep_runs_trials_in_parallel_logs_nested_runs_and_writes_the_tuned_config(sweep_dir):
-    (sweep_dir / "conf/model/mcrl_tuned.yaml").unlink(missing_ok=True)  # the copy holds the committed one
+    committed = (sweep_dir / "conf/model/mcrl_tuned.yaml").read_bytes()  # the defaults pick it
     assert sweep_main([*SWEEP, "sweep.n_trials=3", "sweep.workers=2"]) == 0
-    assert not (sweep_dir / "conf/model/mcrl_tuned.yaml").exists()  # a sweep writes into conf/ only when asked
+    assert (sweep_dir / "conf/model/mcrl_tuned.yaml").read_bytes() == committed  # conf/ is written only when asked
     assert sweep_main(["--adopt", *SWEEP, "sweep.n_trials=3"]) == 0  # the study is complete: nothing more runs
     study = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db")
     assert [t.state.name for t in study.trials] == ["COMPLETE"] * 3
@@ -167,7 +168,7 @@ def test_two_workers_share_one_study_in_postgresql(sweep_dir):
     admin.dispose()
     env = {**os.environ, "TOOLPATH_SWEEP_STORAGE": f"{POSTGRES}/optuna_{tag}",
            "MLFLOW_TRACKING_URI": f"{POSTGRES}/mlflow_{tag}"}
-    cmd = [sys.executable, "-m", "toolpath.sweep", "--trials", "2", *SMOKE, "sweep.workers=1"]
+    cmd = [sys.executable, "-m", "toolpath.sweep", "--trials", "2", *SWEEP, "sweep.workers=1"]
     workers = [subprocess.Popen(cmd, cwd=sweep_dir, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                 text=True) for _ in range(2)]
     outputs = [w.communicate(timeout=600)[0] for w in workers]

@@ -55,8 +55,9 @@ def build(config: Mapping[str, Any]) -> Any:
     """Instantiate a model from a flat config: ``_target_`` (a dotted class path) and its arguments.
 
     A few lines instead of Hydra's ``instantiate``, so the domain packages do not depend on Hydra;
-    every ``conf/model`` file is one flat ``_target_`` with plain arguments (tested)."""
-    arguments = _plain(config)
+    every ``conf/model`` file is one flat ``_target_`` with plain arguments (tested).  A tuned model's
+    ``schedule`` is training settings, not an argument: it is left out."""
+    arguments, _ = split_schedule(_plain(config))
     cls = target_class(arguments)
     arguments.pop("_target_")
     return cls(**arguments)

@@ -48,8 +48,8 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
             metrics[f"table3.{shape}.{model}.test_accuracy"] = figure["mean"]
             if figure["sd"] is not None:
                 metrics[f"table3.{shape}.{model}.test_accuracy_sd"] = figure["sd"]
-            for k, value in enumerate(figure["values"]):
-                metrics[f"table3.{shape}.{model}.test_accuracy_seed{k}"] = value
+            for replicate, value in figure["per_seed"].items():
+                metrics[f"table3.{shape}.{model}.test_accuracy_{replicate}"] = value
         learned = {m: a for m, a in accuracy.items() if m != "rule"}
         if learned:
             tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)

@@ -90,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
 
         base_overrides = [f"+sweep={args.config}", *args.overrides]
         base = compose(root, base_overrides)
+        # search from the model's own config, not the tuned one the defaults may pick: a tuned schedule
+        # would override the very keys the search samples
+        choice = f"model@models.{base.sweep.model}="
+        if base.sweep.model in base.models and not any(o.startswith(choice) for o in args.overrides):
+            base_overrides.append(f"{choice}{base.sweep.model}")
+            base = compose(root, base_overrides)
         spec = spec_from(base, root, base_overrides)
         windows = Path(str(base.paths.windows)) / f"{spec.shape}.npz"
         if not (root / windows).is_file():

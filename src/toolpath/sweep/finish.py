@@ -45,7 +45,8 @@ def tag_best(spec: SweepSpec, study: optuna.Study) -> None:
 def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
     """Write the best trial as ``conf/model/<model>_tuned.yaml``: the model's keys, and the training
     keys of ``train.<shape>`` and ``train.common`` (lr, epochs, clipping, ...) under ``schedule``,
-    which the train stage applies to this model only, on every shape.  Keys outside both are listed in the header, not silently dropped."""
+    which the train stage applies to this model only, on every shape.  Keys outside both are listed in
+    the header, not silently dropped."""
     from toolpath.sweep.space import overrides
 
     best = study.best_trial

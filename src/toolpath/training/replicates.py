@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import multiprocessing
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
@@ -83,15 +83,13 @@ def run_all(jobs: Sequence[Job], parts: Mapping[str, tuple[np.ndarray, np.ndarra
     with ProcessPoolExecutor(workers, mp_context=context, initializer=_init,
                              initargs=(parts, programs, threads)) as pool:
         futures = [pool.submit(_run, job) for job in jobs]
-        from concurrent.futures import as_completed
-
         yield from (future.result() for future in as_completed(futures))
 
 
 def summarise(outcomes: Sequence[Outcome], test_programs: np.ndarray, seed: int) -> dict:
-    """Mean, standard deviation (ddof 1) and per-seed values of every Table 3 scalar over the
-    replicates, how many replicates predicted one class only, and the program bootstrap of the
-    seed-mean accuracy.  A degenerate replicate is counted, and its figures are left out of the
+    """Mean, standard deviation (ddof 1) and per-seed values (``seed<replicate>``) of every Table 3
+    scalar over the replicates, how many replicates predicted one class only, and the program
+    bootstrap of the seed-mean accuracy.  A degenerate replicate is counted, and its figures are left out of the
     mean: the figures describe the models that learned something."""
     ordered = sorted(outcomes, key=lambda o: o.job.replicate)
     learned = [o for o in ordered if not degenerate(o.metrics["test"])]
@@ -101,10 +99,11 @@ def summarise(outcomes: Sequence[Outcome], test_programs: np.ndarray, seed: int)
     for split in ("val", "test"):
         figures = {}
         for key in SCALARS:
-            values = [o.metrics[split][key] for o in ordered]
+            # keyed, not a list: `dvc metrics show` lists numbers under keys only
+            values = {f"seed{o.job.replicate}": o.metrics[split][key] for o in ordered}
             kept = np.array([o.metrics[split][key] for o in learned if o.metrics[split][key] is not None], float)
             figures[key] = {"mean": float(kept.mean()) if len(kept) else None,
-                            "sd": float(kept.std(ddof=1)) if len(kept) > 1 else None, "values": values}
+                            "sd": float(kept.std(ddof=1)) if len(kept) > 1 else None, "per_seed": values}
         summary[split] = figures
     if learned:
         correct = np.mean([o.test_correct for o in learned], axis=0)
