@@ -208,3 +208,27 @@ def test_the_model_and_shape_lists_live_in_conf_and_name_what_the_code_can_build
     models = OmegaConf.to_container(params.models, resolve=True)
     assert set(params.qat.models) == {name for name in params.train.models if is_learned(models[name])}
     assert not is_learned(models["rule"]) and is_learned(models["mcrl"])
+
+
+def test_training_settings_precedence_shape_then_model_then_shared_lr_then_common_then_tuned_schedule(tmp_path):
+    """train.<shape> < train.per_model.<model> < train.common.lr < train.common < a tuned model's schedule;
+    replicates differ in their seed only, replicate 0 keeps the single-run seed."""
+    from toolpath.settings import training
+
+    cfg = OmegaConf.load(config.compose([], root=REPO, output=tmp_path / "p.yaml"))
+    _, mlp = training(cfg, "gear", "mlp")
+    assert mlp["epochs"] == cfg.train.gear.epochs and mlp["lr"] == cfg.train.gear.lr
+    _, rnn = training(cfg, "gear", "rnn")
+    assert rnn["epochs"] == cfg.train.per_model.rnn.epochs and rnn["lr"] == cfg.train.per_model.rnn.lr
+    assert rnn["clip_grad_norm"] == cfg.train.common.clip_grad_norm
+    shared = OmegaConf.merge(cfg, {"train": {"common": {"lr": 0.0042}}})
+    assert training(shared, "gear", "rnn")[1]["lr"] == 0.0042
+    tuned = OmegaConf.merge(cfg, {"models": {"rnn": {"schedule": {"lr": 0.5, "clip_grad_norm": 9.0}}}})
+    assert training(tuned, "gear", "rnn")[1]["lr"] == 0.5 and training(tuned, "gear", "rnn")[1]["clip_grad_norm"] == 9.0
+    seeds = [training(cfg, "gear", "mlp", r)[1] for r in range(3)]
+    assert len({s["seed"] for s in seeds}) == 3 and seeds[0]["seed"] == mlp["seed"]
+    assert all({k: v for k, v in s.items() if k != "seed"} == {k: v for k, v in mlp.items() if k != "seed"}
+               for s in seeds)
+    paper = OmegaConf.load(config.compose(["+experiment=paper"], root=REPO, output=tmp_path / "q.yaml"))
+    _, rnn_paper = training(paper, "gear", "rnn")  # the paper's profile: Table 2 for every model
+    assert rnn_paper["epochs"] == 497 and rnn_paper["lr"] == 1e-4 and rnn_paper["schedule"] == "step"

@@ -8,7 +8,7 @@ import pytest
 
 DOMAIN = ("gcode", "geometry", "shapes", "labels", "models", "training", "optimize", "feedrate", "sequencing",
           "reports")
-WIRING = ("stages", "sweep", "config", "tracking")
+WIRING = ("stages", "sweep", "config", "tracking", "cli", "cli.stage_times")
 CHECK = """
 import importlib, sys
 importlib.import_module("toolpath.{name}")

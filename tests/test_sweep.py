@@ -24,8 +24,8 @@ from toolpath.sweep.__main__ import main as sweep_main
 
 SMOKE = ["+experiment=smoke"]
 # the smoke windows train in a second; a short epoch range keeps the trials short too
-SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.space.epochs.low=1", "sweep.space.epochs.high=3",
-         "sweep.space.epochs.step=1"]
+SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.replicates=2", "sweep.space.epochs.low=1",
+         "sweep.space.epochs.high=3", "sweep.space.epochs.step=1"]
 
 
 @pytest.fixture(scope="module")
@@ -182,3 +182,16 @@ def test_two_workers_share_one_study_in_postgresql(sweep_dir):
     _, children = _trial_runs("mcrl-gear", env["MLFLOW_TRACKING_URI"])
     assert sorted(int(r.data.tags["optuna_trial"]) for r in children) == list(range(4))
     assert sum(r.data.tags.get("best_trial") == "true" for r in children) == 1
+
+
+def test_a_trial_scores_the_mean_of_its_replicates_by_hand():
+    from toolpath.sweep.objective import average
+
+    one = {"val": {"f1": 0.8, "accuracy": 0.9, "per_class": {}}, "test": {"f1": 0.7, "accuracy": 0.8},
+           "epochs_run": 4, "train_seconds": 2.0}
+    two = {"val": {"f1": 0.9, "accuracy": 0.95, "per_class": {}}, "test": {"f1": 0.75, "accuracy": 0.9},
+           "epochs_run": 6, "train_seconds": 3.0}
+    merged = average([one, two])
+    assert merged["val"] == {"f1": pytest.approx(0.85), "accuracy": pytest.approx(0.925)}
+    assert merged["test"]["accuracy"] == pytest.approx(0.85) and merged["epochs_run"] == 5.0
+    assert merged["train_seconds"] == 5.0

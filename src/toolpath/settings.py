@@ -56,7 +56,8 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     """The network config of ``models.<model>`` and the training settings of ``train.<shape>`` +
     ``train.common`` for it.
 
-    ``train.model_epochs.<model>``, when set, replaces the shape's epoch count for that model;
+    ``train.per_model.<model>`` (e.g. its epochs or learning rate), when set, replaces the shape's
+    keys for that model;
     ``train.common.lr``, when set, replaces every shape's learning rate; a ``schedule`` inside the
     model config (a tuned model) overrides all of these and the ``train.common`` keys, being the most
     specific.
@@ -68,8 +69,8 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     common = cfg.train.common
     network, schedule = split_schedule(plain(cfg.models[model]))
     shared = {"lr": common.lr} if common.get("lr") is not None else {}
-    epochs = {"epochs": cfg.train.model_epochs[model]} if model in (cfg.train.get("model_epochs") or {}) else {}
-    settings = {**plain(cfg.train[shape]), **epochs, **shared, **_common_training(cfg), **schedule,
+    own = plain((cfg.train.get("per_model") or {}).get(model) or {})
+    settings = {**plain(cfg.train[shape]), **own, **shared, **_common_training(cfg), **schedule,
                 "seed": config.seed_for(cfg.seed, "train", shape, model, *_replicate_key(replicate))}
     return network, settings
 

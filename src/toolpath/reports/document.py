@@ -30,11 +30,14 @@ DIFFERENCES = (
     "**Training.** `+experiment=paper` runs Table 2 as printed (staircase decay, 203-497 epochs at 1e-4 / 5e-4). "
     "The default profile fits the pipeline's time budget with a schedule scaled to the steps it runs: one-cycle "
     "(warm-up, cosine decay) at a peak of 3e-3, gradients clipped to norm 1, the best-validation epoch's weights, "
-    "16 epochs for MCRL, MLP and CNN and 4-12 for the others (`train.model_epochs`), batch 64 on every shape "
+    "16 epochs for MLP and CNN and 4-12 for the others, the recurrent ones at a peak of 1e-3 "
+    "(`train.per_model`), batch 64 on every shape "
     "(Table 2: 32 on the pentagram). Every input feature is scaled to unit RMS over the training windows "
     "(`train.common.normalise_inputs`). Every model trains `train.replicates` times with its own seed and Table 3 "
-    "gives mean +- sd; the paper reports one run. The exact LocalCurvature rule is scored on the same test "
-    "programs: it is the ceiling.",
+    "gives mean +- sd; the paper reports one run. MCRL trains with the winner of an Optuna search averaged over "
+    "three seeds (`conf/model/mcrl_tuned.yaml`, from `conf/sweep/mcrl.yaml`): its own learning rate, epochs, "
+    "warm-up, clipping and dropout, and an auxiliary cross-entropy on each branch's head, which the paper does "
+    "not have. The exact LocalCurvature rule is scored on the same test programs: it is the ceiling.",
     "**Baselines.** ConvMixer, ConvNeXt and MaxViT are our 1-D adaptations of image models, sized within a factor "
     "of 2 of MCRL's parameters; ConvMixer and MaxViT embed 5 points per token (`patch: 5`), half the time per "
     "epoch of 2-point tokens at the same parameter count.",

@@ -19,9 +19,10 @@ def load_splits(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
-                    splits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[str, Any]:
+                    splits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+                    replicate: int = 0) -> dict[str, Any]:
     """Validation and test metrics (``classification_metrics``), epochs run and seconds of one training,
-    exactly as the train stage trains it (:func:`toolpath.training.classifier.fit_and_score`)."""
+    exactly as the train stage trains its ``replicate`` (:func:`toolpath.training.classifier.fit_and_score`)."""
     import torch
 
     from toolpath.settings import layout, training
@@ -30,9 +31,23 @@ def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
     splits = splits or load_splits(layout(cfg).windows_file(shape))
-    network, settings = training(cfg, shape, model)
+    network, settings = training(cfg, shape, model, replicate)
     _, metrics, _, seconds = fit_and_score(network, settings, cfg.train.common.class_weight, splits)
     return {**metrics, "train_seconds": seconds}
+
+
+def average(results: list[dict[str, Any]]) -> dict[str, Any]:
+    """The replicates of one trial as one result: every number of ``val`` and ``test`` and the epochs run
+    averaged, the seconds summed.  A winner picked on one seed is picked partly for its seed; the mean
+    over the train stage's replicate seeds is what the pipeline will report."""
+    def mean(values: list[Any]) -> Any:
+        return float(np.mean(values)) if all(isinstance(v, int | float) for v in values) else values[0]
+
+    merged: dict[str, Any] = {split: {key: mean([r[split][key] for r in results]) for key in results[0][split]
+                                      if isinstance(results[0][split][key], int | float)} for split in ("val", "test")}
+    merged["epochs_run"] = mean([r["epochs_run"] for r in results])
+    merged["train_seconds"] = float(sum(r["train_seconds"] for r in results))
+    return merged
 
 
 def metric(result: dict[str, Any], dotted: str) -> float:

@@ -22,7 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 from toolpath import tracking
 from toolpath.config import compose_config as compose
 from toolpath.settings import layout
-from toolpath.sweep.objective import load_splits, metric, train_and_score
+from toolpath.sweep.objective import average, load_splits, metric, train_and_score
 from toolpath.sweep.space import Param, overrides, parse_space, suggest
 
 SWEEP_EXPERIMENT = "cnc-curvature-sweeps"
@@ -53,6 +53,7 @@ class SweepSpec:
     tuned_config: Path
     params: tuple[Param, ...]
     threads: int
+    replicates: int = 1
 
 
 def _absolute_sqlite(url: str, root: Path) -> str:
@@ -70,8 +71,8 @@ def spec_from(cfg: DictConfig, root: Path, base_overrides: Sequence[str]) -> Swe
         raise ValueError(f"sweep.model: no model {s.model!r} in conf/model")
     if s.shape not in cfg.shapes:
         raise ValueError(f"sweep.shape: {s.shape!r} is not one of {list(cfg.shapes)}")
-    if int(s.n_trials) < 1 or int(s.workers) < 1:
-        raise ValueError("sweep.n_trials and sweep.workers must be at least 1")
+    if int(s.n_trials) < 1 or int(s.workers) < 1 or int(s.replicates) < 1:
+        raise ValueError("sweep.n_trials, sweep.workers and sweep.replicates must be at least 1")
     params = parse_space(OmegaConf.to_container(s.space, resolve=True), s.shape)
     root = Path(root).resolve()
     return SweepSpec(
@@ -82,7 +83,8 @@ def spec_from(cfg: DictConfig, root: Path, base_overrides: Sequence[str]) -> Swe
         tracking_uri=str(s.tracking_uri) if s.tracking_uri else tracking.tracking_uri(),
         heartbeat_seconds=int(s.heartbeat_seconds), figures=root / str(s.figures),
         summary=root / str(cfg.paths.report) / "sweep" / f"{s.study}.json", tuned_config=root / str(s.tuned_config),
-        params=tuple(params), threads=max(1, int(cfg.train.common.threads) // int(s.workers)))
+        params=tuple(params), threads=max(1, int(cfg.train.common.threads) // int(s.workers)),
+        replicates=int(s.replicates))
 
 
 def open_storage(spec: SweepSpec) -> optuna.storages.RDBStorage:
@@ -189,7 +191,8 @@ def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[
         for p, text in zip(spec.params, trial_overrides, strict=True):
             client.log_param(run_id, p.name, text.split("=", 1)[1])
         try:
-            result = train_and_score(cfg, spec.shape, spec.model, spec.threads, splits)
+            result = average([train_and_score(cfg, spec.shape, spec.model, spec.threads, splits, replicate)
+                              for replicate in range(spec.replicates)])
             value = metric(result, spec.objective)
         except Exception:
             client.set_terminated(run_id, "FAILED")
