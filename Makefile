@@ -24,7 +24,7 @@ $(STAMP): pyproject.toml Makefile | $(PY)
 install: $(STAMP)
 
 ## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline, timing
-## every stage (reports/timing/pipeline.json: seconds per stage and per stage family).
+## every stage (reports/pipeline_time.json: seconds per stage and per stage family).
 repro: install
 	$(PY) -m toolpath.config
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.cli.stage_times -- $(VENV)/bin/dvc repro

@@ -1,6 +1,6 @@
 """Run a command (``dvc repro``), pass its output through, and time every DVC stage it runs.
 
-Run: python -m toolpath.cli.stage_times [--out reports/timing/pipeline.json] -- dvc repro
+Run: python -m toolpath.cli.stage_times [--out reports/pipeline_time.json] -- dvc repro
 
 DVC prints ``Running stage 'name':`` when a stage starts; a stage ends when the next one starts or
 the command ends.  Each stage's wall time therefore includes its interpreter start-up and imports,
@@ -41,7 +41,8 @@ def by_family(seconds: dict[str, float]) -> dict[str, float]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("reports/timing/pipeline.json"))
+    # outside reports/timing: the report stage depends on that folder, and this file is written after it
+    parser.add_argument("--out", type=Path, default=Path("reports/pipeline_time.json"))
     parser.add_argument("command", nargs=argparse.REMAINDER, help="the command, after --")
     args = parser.parse_args(argv)
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
