@@ -21,3 +21,11 @@ def test_the_command_output_passes_through_and_its_exit_code_is_kept(tmp_path, c
     assert "hello" in capsys.readouterr().out
     written = json.loads(out.read_text())
     assert written["exit_code"] == 3 and set(written["stages"]) == {"a"} and written["families"]["a"] >= 0
+
+
+def test_a_command_that_cannot_start_is_named_and_nothing_is_written(tmp_path, capsys):
+    out = tmp_path / "t.json"
+    assert main(["--out", str(out), "--", str(tmp_path / "no-such-dvc"), "repro"]) == 127
+    err = capsys.readouterr().err
+    assert "error: cannot run" in err and "no-such-dvc" in err
+    assert not out.exists()

@@ -50,7 +50,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("no command given (put it after --)")
     started = time.monotonic()
     events: list[tuple[float, str]] = []
-    with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1) as proc:
+    try:
+        proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+    except OSError as exc:  # not found, not executable: say so, write nothing
+        print(f"error: cannot run {command[0]!r}: {exc.strerror or exc}", file=sys.stderr)
+        return 127
+    with proc:
         for line in proc.stdout:  # type: ignore[union-attr]
             events.append((time.monotonic() - started, line))
             sys.stdout.write(line)
