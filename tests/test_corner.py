@@ -11,16 +11,15 @@ from toolpath.geometry import hausdorff
 from toolpath.optimize.corner import (
     SAMPLES,
     Corner,
-    PsoSettings,
     distance_to_legs,
     evaluate,
     legs,
     method1,
     method1_at,
     outside_distance,
-    pso_corner,
     solve_weights,
 )
+from toolpath.optimize.corner_pso import PsoSettings, _candidate, pso_corner, swarm_fitness
 from toolpath.optimize.nurbs import Nurbs
 from toolpath.optimize.transitions import bezier_transition, bspline_transition
 
@@ -202,3 +201,17 @@ def test_the_wedge_of_a_right_angle_corner():
     inside, outside = np.array([[0.0, -0.5]]), np.array([[0.0, 0.5]])
     assert outside_distance(inside, corner)[0] == pytest.approx(-0.5 * math.sqrt(0.5))
     assert outside_distance(outside, corner)[0] == pytest.approx(0.5 * math.sqrt(0.5))
+
+
+@pytest.mark.parametrize("turn_deg, leg", [(30.0, 0.5), (90.0, 1.0), (150.0, 3.0)])
+def test_the_swarm_is_scored_as_each_candidate_alone(turn_deg, leg):
+    """swarm_fitness (all particles in one pass) gives each particle's evaluate() curvature, inf where it is infeasible."""
+    corner = Corner(turn=math.radians(turn_deg), leg=leg)
+    lo, hi = corner.box()
+    extras = np.random.default_rng(7).uniform(lo, hi, (64, 2))
+    batch = swarm_fitness(corner, extras, 0.1, 0.1)
+    for extra, got in zip(extras, batch):
+        one = _candidate(corner, extra, 0.1, 0.1)
+        expected = one.max_curvature if one is not None and one.feasible else math.inf
+        assert got == pytest.approx(expected, rel=1e-9) if math.isfinite(expected) else math.isinf(got)
+    assert np.isfinite(batch).any() and np.isinf(batch).any()  # both outcomes are exercised

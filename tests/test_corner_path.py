@@ -10,7 +10,7 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.scurve import ramp_distance, ramp_time
 from toolpath.geometry.deviation import point_to_polyline
-from toolpath.optimize.corner import PsoSettings
+from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.optimize.corner_path import CornerSettings, corner_frames, corner_smoother, smooth_path
 from toolpath.optimize.transitions import bezier_curve, bezier_transition, bspline_transition
 from toolpath.shapes.cases import CASES, case_path
@@ -127,7 +127,8 @@ def test_surrogates_are_not_trusted_where_there_is_no_reference_to_beat(monkeypa
     import math
 
     from toolpath.optimize import corner_net
-    from toolpath.optimize.corner import Corner, PsoSettings
+    from toolpath.optimize.corner import Corner
+    from toolpath.optimize.corner_pso import PsoSettings
     from toolpath.optimize.corner_path import surrogate_corner
 
     def never(*args, **kwargs):

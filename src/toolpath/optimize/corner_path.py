@@ -25,7 +25,8 @@ import numpy as np
 
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, PsoSettings, legs, method1_at, pso_corner
+from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, legs, method1_at
+from toolpath.optimize.corner_pso import PsoSettings, pso_corner
 from toolpath.optimize.transitions import bezier_transition, bspline_transition
 
 CORNER_METHODS = ("nurbs_pso", "nurbs_net", "bspline", "bezier")

@@ -13,7 +13,8 @@ import numpy as np
 
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
-from toolpath.optimize.corner import PsoSettings, evaluate
+from toolpath.optimize.corner import evaluate
+from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.optimize.corner_path import (
     CornerSettings,
     corner_smoother,
