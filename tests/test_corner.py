@@ -205,12 +205,12 @@ def test_the_wedge_of_a_right_angle_corner():
 
 @pytest.mark.parametrize("turn_deg, leg", [(30.0, 0.5), (90.0, 1.0), (150.0, 3.0)])
 def test_the_swarm_is_scored_as_each_candidate_alone(turn_deg, leg):
-    """swarm_fitness (all particles in one pass) gives each particle's evaluate() curvature, inf where it is infeasible."""
+    """swarm_fitness (all particles at once) gives each particle's evaluate() curvature, inf where infeasible."""
     corner = Corner(turn=math.radians(turn_deg), leg=leg)
     lo, hi = corner.box()
     extras = np.random.default_rng(7).uniform(lo, hi, (64, 2))
     batch = swarm_fitness(corner, extras, 0.1, 0.1)
-    for extra, got in zip(extras, batch):
+    for extra, got in zip(extras, batch, strict=True):
         one = _candidate(corner, extra, 0.1, 0.1)
         expected = one.max_curvature if one is not None and one.feasible else math.inf
         assert got == pytest.approx(expected, rel=1e-9) if math.isfinite(expected) else math.isinf(got)

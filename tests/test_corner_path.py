@@ -10,8 +10,8 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.scurve import ramp_distance, ramp_time
 from toolpath.geometry.deviation import point_to_polyline
-from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.optimize.corner_path import CornerSettings, corner_frames, corner_smoother, smooth_path
+from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.optimize.transitions import bezier_curve, bezier_transition, bspline_transition
 from toolpath.shapes.cases import CASES, case_path
 
@@ -128,8 +128,8 @@ def test_surrogates_are_not_trusted_where_there_is_no_reference_to_beat(monkeypa
 
     from toolpath.optimize import corner_net
     from toolpath.optimize.corner import Corner
-    from toolpath.optimize.corner_pso import PsoSettings
     from toolpath.optimize.corner_path import surrogate_corner
+    from toolpath.optimize.corner_pso import PsoSettings
 
     def never(*args, **kwargs):
         raise AssertionError("the networks were asked")

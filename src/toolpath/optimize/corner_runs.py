@@ -14,7 +14,6 @@ import numpy as np
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.optimize.corner import evaluate
-from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.optimize.corner_path import (
     CornerSettings,
     corner_smoother,
@@ -22,6 +21,7 @@ from toolpath.optimize.corner_path import (
     surrogate_corner,
     surrogate_limit,
 )
+from toolpath.optimize.corner_pso import PsoSettings
 from toolpath.seeds import seed_for
 from toolpath.shapes.cases import case_path
 
