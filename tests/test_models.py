@@ -84,6 +84,27 @@ def test_mcrl_intermediate_shapes_match_the_text():
     assert [b.points for b in net.branches] == [50, 30, 20, 10]
 
 
+def test_mcrl_fused_with_branch_outputs_feeds_each_branch_the_previous_class_probabilities():
+    """fuse: output (the text's "fused with the MLP / CNN / RNN output" read as the 4-node softmax):
+    the next branch's input is 2 channels plus 4 probabilities that sum to 1 at every step."""
+    net = build({**CONFIGS["mcrl"], "fuse": "output"}).eval()
+    seen = {}
+
+    def record(key):
+        def hook(module, inputs, output):
+            seen[key] = inputs[0]
+        return hook
+
+    for key, module in (("conv", net.conv), ("rnn", net.rnns[0]), ("lstm", net.lstms[0])):
+        module.register_forward_hook(record(key))
+    assert net(windows(3)).shape == (3, 4)
+    assert seen["conv"].shape == (3, 6, 30) and seen["rnn"].shape == (3, 20, 6) and seen["lstm"].shape == (3, 10, 6)
+    assert torch.allclose(seen["rnn"][..., 2:].sum(-1), torch.ones(3, 20))
+    assert parameter_count(net) < parameter_count(build({**CONFIGS["mcrl"], "fuse": "hidden"}))
+    with pytest.raises(ValueError, match="fuse"):
+        build({**CONFIGS["mcrl"], "fuse": "sum"})
+
+
 def test_input_preparation_keeps_local_curvature_and_normalises():
     x = windows(20) * 37.0 + 500.0
     prepared = prepare(x)

@@ -7,9 +7,11 @@ The text fixes the branch structure; the choices it leaves open are made here:
   share of the input (``resample: area``), so that the turning terms the label sums all reach
   every branch; ``resample: linear`` interpolates instead (reads 20 of 50 points at 10); then a
   ReLU linear attention whose output keeps 2 channels (so branch 1 flattens to 100, as the text says), with a residual.
-* "Fused with" the previous branch: that branch's last hidden vector (MLP 16, CNN 512, RNN 64) is
-  broadcast along the sequence and concatenated as channels, as the issue specifies for branch 2,
-  and done the same way for branches 3 and 4.
+* "Fused with" the previous branch's output, broadcast along the sequence and concatenated as
+  channels.  ``fuse: hidden`` reads "output" as that branch's last hidden vector (MLP 16, CNN 512,
+  RNN 64); ``fuse: output`` as what the text calls each branch's output, its 4-node softmax.  The
+  second keeps the recurrent branches' inputs 6 wide instead of 514 and 66: the 512-wide CNN vector
+  repeated over 20 steps saturates the first RNN's tanh and costs most of the model's multiply-adds.
 * The "3x3 convolution" on a sequence is a Conv1d with kernel 3, padding 1 (30 -> 30 -> pool 15).
   ReLU is applied functionally after the Conv1d (inductor's INT8 fusion mis-sizes Conv1d followed
   by an ``nn.ReLU`` module in torch 2.13 + torchao 0.18).
@@ -30,6 +32,7 @@ from toolpath.models.attention import ReLULinearAttention
 from toolpath.models.inputs import Prepare
 
 RESAMPLING = ("area", "linear")
+FUSIONS = ("hidden", "output")
 
 
 class _Branch(nn.Module):
@@ -67,20 +70,25 @@ class MCRL(nn.Module):
                  conv_channels: int = 32, cnn_hidden: int = 512, rnn_hidden: tuple[int, ...] = (128, 64, 64),
                  lstm_hidden: tuple[int, ...] = (64, 32, 32), dropout: float = 0.2, window: int = 50,
                  points: tuple[int, int, int, int] = (50, 30, 20, 10), classes: int = 4,
-                 inputs: str = "turning", resample: str = "area") -> None:
+                 inputs: str = "turning", resample: str = "area", fuse: str = "hidden") -> None:
         super().__init__()
+        if fuse not in FUSIONS:
+            raise ValueError(f"fuse must be one of {FUSIONS}, got {fuse!r}")
+        self.fuse = fuse
         self.prepare = Prepare(inputs)
         self.branches = nn.ModuleList(_Branch(p, attention_width, resample) for p in points)
         dims = [points[0] * 2, *mlp_hidden]
         self.mlp = nn.Sequential(*[m for a, b in zip(dims[:-1], dims[1:], strict=True)
                                    for m in (nn.Linear(a, b), nn.ReLU())])
-        self.conv = nn.Conv1d(2 + mlp_hidden[-1], conv_channels, kernel_size=3, padding=1)
+        # what branch k + 1 is fused with: branch k's last hidden vector, or its 4-class output
+        context = (mlp_hidden[-1], cnn_hidden, rnn_hidden[-1]) if fuse == "hidden" else (classes,) * 3
+        self.conv = nn.Conv1d(2 + context[0], conv_channels, kernel_size=3, padding=1)
         self.pool = nn.MaxPool1d(2)
         self.dropout = nn.Dropout(dropout)
         self.cnn_fc = nn.Linear(conv_channels * (points[1] // 2), cnn_hidden)
-        rnn_in = [2 + cnn_hidden, *rnn_hidden[:-1]]
+        rnn_in = [2 + context[1], *rnn_hidden[:-1]]
         self.rnns = nn.ModuleList(nn.RNN(a, b, batch_first=True) for a, b in zip(rnn_in, rnn_hidden, strict=True))
-        lstm_in = [2 + rnn_hidden[-1], *lstm_hidden[:-1]]
+        lstm_in = [2 + context[2], *lstm_hidden[:-1]]
         self.lstms = nn.ModuleList(nn.LSTM(a, b, batch_first=True) for a, b in zip(lstm_in, lstm_hidden, strict=True))
         self.heads = nn.ModuleList(nn.Linear(d, classes) for d in (mlp_hidden[-1], cnn_hidden, rnn_hidden[-1],
                                                                     lstm_hidden[-1]))
@@ -91,18 +99,22 @@ class MCRL(nn.Module):
         x = self.prepare(x)
         b1, b2, b3, b4 = (branch(x) for branch in self.branches)
         h1 = self.mlp(b1.flatten(1))
-        c = F.relu(self.conv(_fuse(b2, h1).transpose(1, 2)))
+        c = F.relu(self.conv(_fuse(b2, self._context(0, h1)).transpose(1, 2)))
         c = self.dropout(self.pool(c))  # (B, 32, 15)
         h2 = F.relu(self.cnn_fc(c.flatten(1)))  # 480 -> 512
-        r = _fuse(b3, h2)
+        r = _fuse(b3, self._context(1, h2))
         for rnn in self.rnns:
             r, _ = rnn(r)
         h3 = r[:, -1]
-        s = _fuse(b4, h3)
+        s = _fuse(b4, self._context(2, h3))
         for lstm in self.lstms:
             s, _ = lstm(s)
         h4 = s[:, -1]
         return [h1, h2, h3, h4]
+
+    def _context(self, branch: int, hidden: Tensor) -> Tensor:
+        """What the next branch is fused with: the hidden vector, or this branch's class probabilities."""
+        return hidden if self.fuse == "hidden" else self.heads[branch](hidden).softmax(dim=1)
 
     def branch_logits(self, x: Tensor) -> list[Tensor]:
         """The four branch heads' logits (for the optional auxiliary losses)."""
