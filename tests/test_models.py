@@ -15,6 +15,7 @@ from toolpath.models import (
     build,
     is_learned,
     prepare,
+    random_reversal,
     random_rotation_reflection,
 )
 from toolpath.models.inputs import Prepare, turning_features
@@ -148,6 +149,14 @@ def test_rotation_reflection_augmentation_keeps_local_curvature():
     aug = random_rotation_reflection(x, torch.Generator().manual_seed(1))
     assert not torch.allclose(aug, x)
     assert np.allclose(local_curvature(aug.numpy()), local_curvature(x.numpy()), atol=1e-8)
+
+
+def test_reversal_augmentation_keeps_local_curvature_and_reverses_about_half():
+    x = windows(40).double()
+    aug = random_reversal(x, torch.Generator().manual_seed(3))
+    reversed_ = torch.all(aug == x.flip(1), dim=(1, 2))
+    assert 5 < int(reversed_.sum()) < 35 and torch.all(reversed_ | torch.all(aug == x, dim=(1, 2)))
+    assert np.allclose(local_curvature(aug.numpy()), local_curvature(x.numpy()), atol=1e-12)
 
 
 def test_rule_agrees_with_the_labeller_and_speaks_sklearn():

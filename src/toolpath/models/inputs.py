@@ -14,8 +14,8 @@ per model by the ``inputs`` key of ``conf/model/<name>.yaml``:
   RMS distance from it (Procrustes-style), floored so a degenerate window gives zeros, not NaN.
 
 Both keep the (B, n, 2) shape, so every architecture is unchanged.  No model ever sees the label
-or the LocalCurvature value itself.  Random rotation / reflection is an augmentation for training
-only (seeded by the caller's generator).
+or the LocalCurvature value itself.  Random rotation / reflection and traversal reversal are
+augmentations for training only (seeded by the caller's generator).
 """
 
 from __future__ import annotations
@@ -94,3 +94,10 @@ def random_rotation_reflection(windows: Tensor, generator: torch.Generator) -> T
     cos, sin = torch.cos(angle), torch.sin(angle)
     rot = torch.stack([torch.stack([cos, -sin], -1), torch.stack([sin * flip, cos * flip], -1)], -2)
     return torch.einsum("bij,bnj->bni", rot.to(windows.dtype), windows)
+
+
+def random_reversal(windows: Tensor, generator: torch.Generator) -> Tensor:
+    """Traverse half of the windows backwards (labels are invariant: a path's turns are the same
+    angles in reverse order, with the opposite sign)."""
+    reverse = torch.rand(windows.shape[0], generator=generator) < 0.5
+    return torch.where(reverse[:, None, None], windows.flip(1), windows)

@@ -29,7 +29,7 @@ MEALPY_CLASSES = {
     "coa": "mealpy.swarm_based.CoatiOA.OriginalCoatiOA",
     "hba": "mealpy.swarm_based.HBA.OriginalHBA",
     "avoa": "mealpy.swarm_based.AVOA.OriginalAVOA",
-    "scso": "mealpy.swarm_based.SCSO.OriginalSCSO",
+    "scso": "toolpath.optimize.scso.VectorisedSCSO",  # mealpy's OriginalSCSO, one generation per array op
     "esoa": "mealpy.swarm_based.ESOA.OriginalESOA",
     "pso": "mealpy.swarm_based.PSO.OriginalPSO",
 }

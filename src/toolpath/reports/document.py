@@ -37,7 +37,9 @@ DIFFERENCES = (
     "gives mean +- sd; the paper reports one run. MCRL (`conf/model/mcrl_fused.yaml`) fuses each branch with "
     "the previous branch's 4-class output (our reading of \"fused with the ... output\"; the hidden-vector "
     "reading is `fuse: hidden`), trains an auxiliary cross-entropy on each branch's head, which the paper does "
-    "not have, and has a learning rate and epochs of its own; the Optuna winner of `conf/sweep/mcrl.yaml` "
+    "not have, sees its training windows randomly rotated, reflected and traversed backwards (the baselines do "
+    "not; `train.common.augment`), and has a learning rate and epochs of its own; the Optuna winner of "
+    "`conf/sweep/mcrl.yaml` "
     "(`conf/model/mcrl_tuned.yaml`, selected on 6 gear validation programs) did not hold on 39-81 test programs. "
     "Half of each shape's programs are test programs. The exact LocalCurvature rule is scored on the same test "
     "programs: it is the ceiling.",

@@ -12,6 +12,7 @@ processes, so the pipeline does not pay interpreter and MLflow start-up once per
 from __future__ import annotations
 
 import csv
+import time
 from pathlib import Path
 
 from toolpath import artifacts, config, settings, tracking
@@ -73,13 +74,18 @@ def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: lis
     with mlflow.start_run(run_name=f"train@{shape}-{model}", nested=True, experiment_id=stage.info.experiment_id,
                           tags={**{k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")},
                                 "shape": shape, "model": model}):
-        mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
-        for record in first.history:
-            # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure
-            mlflow.log_metrics({k: v for k, v in vars(record).items() if k != "epoch"}, step=record.epoch)
-        mlflow.log_metrics({k: v for k, v in config.flat(metrics).items()
-                            if isinstance(v, int | float) and not isinstance(v, bool)})
-        mlflow.log_metric("train_seconds", sum(o.seconds for o in runs))
+        from mlflow.entities import Metric, Param
+
+        now = int(time.time() * 1000)
+        # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure
+        values = [Metric(k, float(v), now, record.epoch) for record in first.history
+                  for k, v in vars(record).items() if k != "epoch"]
+        values += [Metric(k, float(v), now, 0) for k, v in config.flat(metrics).items()
+                   if isinstance(v, int | float) and not isinstance(v, bool)]
+        values.append(Metric("train_seconds", sum(o.seconds for o in runs), now, 0))
+        # one batch per model: the stage process shares the cores with the training workers
+        mlflow.MlflowClient().log_batch(mlflow.active_run().info.run_id, metrics=values,
+                                        params=[Param(k, str(v)[:6000]) for k, v in params.items()])
         # the report stage draws the confusion matrices; MLflow keeps the numbers
         mlflow.log_dict({"confusion_test": metrics["test"]["confusion"]}, "confusion_test.json")
         mlflow.log_artifact(str(checkpoint))

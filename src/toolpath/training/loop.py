@@ -23,7 +23,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from toolpath.models.inputs import Prepare, random_rotation_reflection
+from toolpath.models.inputs import Prepare, random_reversal, random_rotation_reflection
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class TrainSettings:
     epochs: int = 20
     patience: int | None = None  # epochs without a better validation loss before stopping
     weight_decay: float = 0.0
-    augment: bool = False  # random rotation / reflection of training windows
+    augment: bool = False  # random rotation / reflection / reversal of training windows
     aux_loss_weight: float = 0.0  # MCRL only: weight of the per-branch auxiliary losses
     schedule: str = "step"  # "step" (Table 2's staircase) or "onecycle" (warm-up, cosine decay)
     warmup: float = 0.3  # onecycle: share of the steps spent warming up
@@ -125,7 +125,7 @@ def fit_network(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSet
             idx = order[start : start + settings.batch_size]
             xb, yb = Xt[idx], yt[idx]
             if settings.augment:
-                xb = random_rotation_reflection(xb, generator)
+                xb = random_reversal(random_rotation_reflection(xb, generator), generator)
             with torch.random.fork_rng(devices=[]):
                 torch.manual_seed(int(torch.randint(0, 2**31 - 1, (1,), generator=generator)))  # dropout
                 loss, logits = _loss(net, xb, yb, weight, settings.aux_loss_weight)
