@@ -6,7 +6,6 @@ import warnings
 from enum import IntEnum
 
 import numpy as np
-from sklearn.model_selection import StratifiedGroupKFold
 
 
 class Split(IntEnum):
@@ -41,6 +40,8 @@ def split_by_program(program_ids: np.ndarray, labels: np.ndarray, fractions: tup
     n_programs = len(np.unique(program_ids))
     if n_programs < k:
         raise ValueError(f"{n_programs} programs cannot fill {k} folds; generate more programs")
+    from sklearn.model_selection import StratifiedGroupKFold  # here: 3 s of imports every stage would pay
+
     folds = StratifiedGroupKFold(n_splits=k, shuffle=True, random_state=seed)
     code = np.zeros(len(program_ids), dtype=np.int8)
     with warnings.catch_warnings():
