@@ -4,14 +4,17 @@ between stages are :mod:`toolpath.artifacts`."""
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import shutil
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TypeVar
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 T = TypeVar("T")
+R = TypeVar("R")
 
 
 def shape_arg(description: str, argv: list[str] | None, shapes: Iterable[str]) -> argparse.Namespace:
@@ -36,6 +39,17 @@ def progress(items: Iterable[T], label: str, total: int | None = None) -> Iterat
         for item in items:
             yield item
             bar.advance(task)
+
+
+def pool_map(fn: Callable[[T], R], jobs: list[T], workers: int, label: str) -> list[R]:
+    """``[fn(job) for job in jobs]`` over ``workers`` processes, in job order whatever the worker count,
+    with a progress bar.  ``dvc repro`` runs one stage at a time, so a one-process stage leaves a core
+    idle.  Spawned, not forked: the stage process holds MLflow's threads (and maybe torch's)."""
+    if workers <= 1:
+        return [fn(job) for job in progress(jobs, label)]
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(fn, job) for job in jobs]
+        return [f.result() for f in progress(futures, label)]
 
 
 def grouped_metrics(methods: dict, names: dict[str, str]) -> dict[str, float]:

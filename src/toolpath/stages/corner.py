@@ -12,9 +12,7 @@ corner and method (Table 2's content), the surrogates' loss curves and the timin
 from __future__ import annotations
 
 import csv
-import multiprocessing
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -28,16 +26,11 @@ from toolpath.optimize.corner_runs import (
     surrogate_timing,
     train_surrogates,
 )
-from toolpath.stages._common import progress
+from toolpath.stages._common import pool_map, progress
 
 
 def _pool_map(workers: int) -> Callable[[Callable, list, str], list]:
-    def pool_map(fn: Callable, jobs: list, label: str) -> list:
-        # spawn, not fork: the parent holds MLflow's threads; results in job order, whatever the worker count
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(fn, job) for job in jobs]
-            return [f.result() for f in progress(futures, label)]
-    return pool_map
+    return lambda fn, jobs, label: pool_map(fn, jobs, workers, label)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -47,13 +40,13 @@ def main(argv: list[str] | None = None) -> None:
     ccfg, layout = settings.plain(cfg.corner), settings.layout(cfg)
     corner_settings, machine, band = settings.corner(cfg), settings.machine(cfg), settings.feed_band(cfg)
     torch.set_num_threads(ccfg["threads"])
-    pool_map = _pool_map(ccfg["workers"])
+    mapper = _pool_map(ccfg["workers"])
     params = {"seed": cfg.seed, **config.flat(ccfg, "corner"), **config.flat(cfg.feedrate, "feedrate")}
     with tracking.stage_run("corner", params):
         import mlflow
 
         try:
-            trained = train_surrogates(ccfg, corner_settings, cfg.seed, pool_map)
+            trained = train_surrogates(ccfg, corner_settings, cfg.seed, mapper)
         except ValueError as exc:
             raise SystemExit(f"params.yaml: {exc}") from None
         nets = (trained["nets"]["fdls"], trained["nets"]["sdls"])
@@ -64,7 +57,7 @@ def main(argv: list[str] | None = None) -> None:
             rows += case_rows
             profiles.update(case_profiles)
         seconds = {c: {m: r.pop("seconds_per_corner") for m, r in rec["methods"].items()} for c, rec in cases.items()}
-        metrics = {"cases": cases, "pso_study": pso_study(ccfg, corner_settings, cfg.seed, pool_map),
+        metrics = {"cases": cases, "pso_study": pso_study(ccfg, corner_settings, cfg.seed, mapper),
                    "surrogates": surrogate_record(trained)}
         artifacts.save_checkpoint({"fdls": nets[0].state_dict(), "sdls": nets[1].state_dict(), "net": ccfg["net"]},
                                   layout.surrogates)

@@ -17,10 +17,17 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.windows import summarise
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.stages._common import grouped_metrics, progress, shape_arg
+from toolpath.stages._common import grouped_metrics, pool_map, shape_arg
 
 ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smoothed", "time_saved_pct",
               "hausdorff_mm", "within_limits", "bracketed")
+
+
+def _plan(job: tuple) -> list[dict]:
+    """The planner's record of each polyline of one chunk."""
+    polylines, machine, blend_tolerance, band, bounds = job
+    return [assess(points, polyline_radius(points, blend_tolerance), machine, straight=True, band=band,
+                   bounds=bounds)[1] for points in polylines]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -31,20 +38,23 @@ def main(argv: list[str] | None = None) -> None:
     windows = artifacts.load_windows(layout.windows_file(args.shape), args.shape).windows.astype(np.float64)
     smoothed = artifacts.load_smoothed(layout.smoothed_file(args.shape), args.shape)
 
-    def planned(points: np.ndarray) -> dict:
-        return assess(points, polyline_radius(points, fcfg["blend_tolerance"]), machine, straight=True, band=band,
-                      bounds=fcfg["bounds"])[1]
-
     with tracking.stage_run(f"feedrate@{args.shape}", {"seed": cfg.seed, **config.flat(fcfg, "feedrate")},
                             shape=args.shape):
         import mlflow
 
-        originals = {int(w): planned(windows[int(w)]) for w in np.unique(smoothed.window)}
+        originals = [int(w) for w in np.unique(smoothed.window)]
+        polylines = [windows[w] for w in originals] + [p.astype(np.float64) for p in smoothed.points]
+        # chunks of plans, a few per worker: the plans are independent and take 10-100 ms each
+        chunks = np.array_split(np.arange(len(polylines)), 8 * max(fcfg["workers"], 1))
+        jobs = [([polylines[i] for i in chunk], machine, fcfg["blend_tolerance"], band, fcfg["bounds"])
+                for chunk in chunks if len(chunk)]
+        plans = [record for chunk in pool_map(_plan, jobs, fcfg["workers"], f"feedrate {args.shape}")
+                 for record in chunk]
+        before_of = dict(zip(originals, plans[: len(originals)], strict=True))
         rows = []
-        for k in progress(list(range(len(smoothed.window))), f"feedrate {args.shape}"):
-            w = int(smoothed.window[k])
-            points = smoothed.points[k].astype(np.float64)
-            record, before = planned(points), originals[w]
+        for k, record in enumerate(plans[len(originals):]):
+            w, points = int(smoothed.window[k]), polylines[len(originals) + k]
+            before = before_of[w]
             rows.append({"window": w, "mode": str(smoothed.mode[k]), "encoding": str(smoothed.encoding[k]),
                          "method": str(smoothed.method[k]), "time_original": before["time"],
                          "time_smoothed": record["time"],

@@ -14,7 +14,16 @@ from toolpath import artifacts, config, settings, tracking
 from toolpath.gcode import GCodeError, read_file
 from toolpath.labels import concat, label_program, split_by_program
 from toolpath.labels.summary import label_summary
-from toolpath.stages._common import progress, shape_arg
+from toolpath.stages._common import pool_map, shape_arg
+
+
+def _label_file(job: tuple) -> object:
+    """One program's labelled windows, or its reader error as text (a GCodeError does not pickle)."""
+    path, read_opts, window, stride, bounds = job
+    try:
+        return label_program(read_file(path, read_opts), window, stride, bounds)
+    except GCodeError as exc:
+        return str(exc)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -28,14 +37,11 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run(f"label@{args.shape}", params):
         import mlflow
 
-        parts, program = [], []
-        for k, path in enumerate(progress(files, f"label {args.shape}")):
-            try:
-                windows = label_program(read_file(path, read_opts), lab.window, lab.stride, settings.bounds(cfg))
-            except GCodeError as exc:
-                sys.exit(str(exc))
-            parts.append(windows)
-            program.append(np.full(len(windows), k, dtype=np.int32))
+        jobs = [(path, read_opts, lab.window, lab.stride, settings.bounds(cfg)) for path in files]
+        parts = pool_map(_label_file, jobs, lab.workers, f"label {args.shape}")
+        for failure in (p for p in parts if isinstance(p, str)):
+            sys.exit(failure)
+        program = [np.full(len(windows), k, dtype=np.int32) for k, windows in enumerate(parts)]
         windows, program = concat(parts, lab.window), np.concatenate(program)
         fractions = (lab.split.train, lab.split.val, lab.split.test)
         split = split_by_program(program, windows.label, fractions, config.seed_for(cfg.seed, "label", args.shape))

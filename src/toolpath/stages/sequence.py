@@ -17,7 +17,7 @@ from toolpath.artifacts import write_json
 from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
 from toolpath.sequencing.planner import SheetPlan
 from toolpath.sequencing.score import collisions
-from toolpath.stages._common import clean_dir, progress
+from toolpath.stages._common import clean_dir, pool_map
 
 
 def load_sheet(path: Path) -> Sheet:
@@ -36,6 +36,11 @@ def plan_record(plan: SheetPlan, sheet: Sheet) -> dict:
             "collisions": [list(c) for c in collisions(plan, sheet.parts, part_tree(sheet.parts))]}
 
 
+def _run_sheet(job: tuple) -> dict:
+    sheet, seq = job
+    return run_sheet(sheet, seq["algorithm"], seq["gtsp"], seq["feed"], seq["methods"])
+
+
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     seq = OmegaConf.to_container(cfg.sequence, resolve=True)
@@ -49,9 +54,10 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run("sequence", {"seed": cfg.seed, **config.flat(seq, "sequence")}):
         import mlflow
 
-        for n in progress(counts, "sequence sheets"):
+        # sheets are independent: one per worker (each method's seconds are then timed beside another sheet's work)
+        planned = pool_map(_run_sheet, [(sheets[n], seq) for n in counts], seq["workers"], "sequence sheets")
+        for n, outcomes in zip(counts, planned, strict=True):
             sheet = sheets[n]
-            outcomes = run_sheet(sheet, seq["algorithm"], seq["gtsp"], seq["feed"], seq["methods"])
             manual = outcomes["manual"].scores["empty_travel_mm"] if "manual" in outcomes else None
             metrics["sheets"][str(n)] = {
                 m: {**o.scores, **{k: v for k, v in o.facts.items() if k not in ("seconds", "time_capped")},
