@@ -79,3 +79,13 @@ def test_timed_and_branch_profile_report_every_part():
     profile = branch_profile(net, x, repeats=2)
     assert set(profile) == {*MCRL_GROUPS, "total", "unattributed"}
     assert sum(profile[g] for g in MCRL_GROUPS) <= profile["total"] * 1.01
+
+
+def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):
+    clf, X, y = trained_mlp
+    settings = TrainSettings(lr=3e-4, epochs=2, batch_size=32, seed=2)
+    result = qat.train_qat(clf.network_, X, y, settings, X, y, freeze_last=1, float_modules=("prepare", "net.0"))
+    ops = qat.op_precision(result.model)
+    assert ops["float"] == {"linear": 1} and ops["int8"]["linear"] == 4  # the first of five layers stays float
+    with pytest.raises(ValueError, match="has no module 'net.9'"):
+        qat.train_qat(clf.network_, X, y, settings, X, y, freeze_last=1, float_modules=("net.9",))

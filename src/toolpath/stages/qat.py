@@ -29,12 +29,13 @@ TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
 def _worker(job: tuple) -> tuple[dict, float, str | None]:
     """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
-    name, fp32_file, producer, parts, train_settings, freeze_last, out, threads = job
+    name, fp32_file, producer, parts, train_settings, freeze_last, out, threads, float_modules = job
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
     checkpoint = artifacts.load_checkpoint(fp32_file, producer)  # a corrupt file stops the stage
     try:
-        entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False)
+        entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
+                                      float_modules=float_modules)
         return entry, seconds, None
     except Exception as exc:  # a route that fails is a result to report, not a crash
         return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
@@ -71,7 +72,8 @@ def main(argv: list[str] | None = None) -> None:
             threads = max(1, cfg.train.common.threads // qcfg["workers"])
             jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,
                          settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
-                         layout.int8_model(args.shape, name), threads))
+                         layout.int8_model(args.shape, name), threads,
+                         list((qcfg.get("float_modules") or {}).get(name) or [])))
         # models are independent: spawned workers, results in submission order (same output for any order)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(_worker, job) for job in jobs]

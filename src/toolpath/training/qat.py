@@ -2,7 +2,8 @@
 
 Route (``../shared/platform-notes.md``): ``torch.export`` with a dynamic batch dimension ->
 ``prepare_qat_pt2e`` with the x86 inductor quantizer (QAT config: per-channel INT8 weights, per-tensor
-INT8 activations with fake quantization) -> train with the same loop and schedule as FP32 -> observers
+INT8 activations with fake quantization; the modules of ``qat.float_modules``, the input normalisation
+and the layers that see the raw turning terms, stay float) -> train with the same loop and schedule as FP32 -> observers
 frozen for the last epoch(s), so the final epochs fine-tune against fixed scales -> ``convert_pt2e``.
 The converted graph is exported again and saved as ``.pt2``; it reloads to identical outputs.
 
@@ -18,7 +19,7 @@ from __future__ import annotations
 import os
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,8 +50,9 @@ def export(net: nn.Module, example: torch.Tensor) -> torch.export.ExportedProgra
     return torch.export.export(net, (example,), dynamic_shapes=_dynamic_batch())
 
 
-def prepare(net: nn.Module, example: torch.Tensor) -> torch.fx.GraphModule:
-    """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer."""
+def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] = ()) -> torch.fx.GraphModule:
+    """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer,
+    leaving the modules named in ``float_modules`` (``named_modules()`` names) in float."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
     from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
@@ -60,6 +62,11 @@ def prepare(net: nn.Module, example: torch.Tensor) -> torch.fx.GraphModule:
 
     net.eval()
     quantizer = X86InductorQuantizer().set_global(get_default_x86_inductor_quantization_config(is_qat=True))
+    known = {name for name, _ in net.named_modules()}
+    for name in float_modules:
+        if name not in known:
+            raise ValueError(f"qat.float_modules: {type(net).__name__} has no module {name!r}")
+        quantizer.set_module_name_qconfig(name, None)
     prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
     # .train() / .eval() on an exported graph swap dropout / batch-norm ops the supported way, so the
     # FP32 training loop runs on it unchanged
@@ -102,19 +109,19 @@ class QATResult:
 
 
 def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings, X_val: np.ndarray,
-              y_val: np.ndarray, freeze_last: int = 1,
-              on_epoch: Callable[[EpochRecord], None] | None = None) -> QATResult:
+              y_val: np.ndarray, freeze_last: int = 1, on_epoch: Callable[[EpochRecord], None] | None = None,
+              float_modules: Sequence[str] = ()) -> QATResult:
     """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
 
     ``settings`` is the FP32 schedule (learning rate, batch) with the QAT epoch count, run as a
     fine-tune on Table 2's staircase (about constant over QAT's few steps): no warm-up, no clipping,
     no early stopping or best-state restore (a restored state would mix observer states).
-    Observers freeze after epoch ``epochs - freeze_last``.
+    Observers freeze after epoch ``epochs - freeze_last``; ``float_modules`` stay unquantized.
     """
     if not 0 <= freeze_last < settings.epochs:
         raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
     example = torch.as_tensor(X[:2], dtype=torch.float32)
-    prepared = prepare(net, example)
+    prepared = prepare(net, example, float_modules)
 
     def hook(record: EpochRecord) -> None:
         if record.epoch == settings.epochs - freeze_last:
@@ -175,7 +182,7 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
 
 
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
-                 out: Path, show_epochs: bool = True) -> tuple[dict, float]:
+                 out: Path, show_epochs: bool = True, float_modules: Sequence[str] = ()) -> tuple[dict, float]:
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
     ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT)."""
     clf = from_checkpoint(checkpoint)
@@ -183,9 +190,10 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     if show_epochs:
         with EpochBar(f"qat {name}", settings.epochs) as bar:
             result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                               on_epoch=bar.update)
+                               on_epoch=bar.update, float_modules=float_modules)
     else:
-        result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last)
+        result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
+                           float_modules=float_modules)
     seconds = time.perf_counter() - started
     X_test = torch.as_tensor(parts["test"][0])
     logits = predict_logits(result.model, X_test)
@@ -196,4 +204,5 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     return {"status": "ok", "test": metrics, "reload_identical": bool(torch.equal(logits[:RELOAD_CHECK], reloaded)),
             "file_bytes": size, "tensor_bytes": tensor_bytes(result.model),
             "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
-            "ops": op_precision(result.model), "epochs": len(result.history)}, seconds
+            "ops": op_precision(result.model), "epochs": len(result.history),
+            "float_modules": list(float_modules)}, seconds
