@@ -17,10 +17,15 @@ $(STAMP): pyproject.toml Makefile | $(PY)
 	$(PY) -m pip install --quiet "$(TORCH_SPEC)" uv
 	# uv for the rest: about 10 s where pip took 50-85 s of `make repro`'s 25 minutes.  torch stays
 	# pip's (uv does not look on this machine's disk); the installed 2.13.0 satisfies torch>=2.4.
-	$(VENV)/bin/uv pip install --quiet --python $(PY) -e ".[dev]"
+	# --compile-bytecode: with PYTHONDONTWRITEBYTECODE set (as on this machine kind) nothing else writes
+	# .pyc files, and every stage process would compile MLflow & co. from source again (~5 s each).
+	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e ".[dev]"
 	# mealpy 3.0.3 pins numpy<=1.26 (lifted upstream, unreleased): install it without its pins; its
 	# needs (numpy, scipy, pandas, matplotlib, tqdm) are already there.  Not in pyproject for that reason.
-	$(VENV)/bin/uv pip install --quiet --python $(PY) --no-deps "mealpy==3.0.3"
+	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) --no-deps "mealpy==3.0.3"
+	# OpenVINO (an INT8 runtime the benchmarks compare) keeps its telemetry in its model converters, which
+	# we never call: switched off all the same
+	$(VENV)/bin/opt_in_out --opt_out > /dev/null
 	touch $(STAMP)
 
 install: $(STAMP)

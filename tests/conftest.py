@@ -1,9 +1,11 @@
-"""Shared fixtures: the real G-code corpus, an isolated MLflow store, the repository root."""
+"""Shared fixtures: the real G-code corpus, an isolated MLflow store, the repository root, an easy split
+and an MLP trained on it."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -38,3 +40,29 @@ def write_windows(path: Path, windows, label, split, program=None) -> Path:
                            first_line=np.zeros(n, np.int32), split=np.asarray(split, np.int8),
                            program_files=np.array(["p.nc"])), path)
     return path
+
+
+def easy_split(n=192, seed=0):
+    """Straight lines (class index 0) against zig-zags (class index 3), at random scales and slopes."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0, 10, 50)
+    X, y = [], []
+    for k in range(n):
+        rough = k % 2
+        pts = np.column_stack([t, (1.5 * (np.arange(50) % 2) if rough else np.zeros(50))])
+        angle = rng.uniform(-0.3, 0.3)
+        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        X.append(rng.uniform(0.5, 2) * pts @ rot.T)
+        y.append(3 * rough)
+    return np.asarray(X, dtype=np.float32), np.asarray(y)
+
+
+@pytest.fixture(scope="module")
+def trained_mlp():
+    """An MLP trained on :func:`easy_split` (QAT and runtime tests start from it)."""
+    from toolpath.training import TorchClassifier
+
+    X, y = easy_split()
+    settings = {"lr": 3e-3, "epochs": 15, "batch_size": 32, "decay_steps": 1000, "seed": 1}
+    clf = TorchClassifier({"_target_": "toolpath.models.MLP"}, settings).fit(X, y + 1)
+    return clf, X, y

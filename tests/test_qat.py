@@ -1,36 +1,13 @@
 """QAT through PT2E on an easy split, the saved INT8 graph, and the benchmark helpers (no torch.compile)."""
 
-import numpy as np
 import pytest
 import torch
 
+from conftest import easy_split
 from toolpath.models import MCRL
-from toolpath.training import TorchClassifier, qat
+from toolpath.training import qat
 from toolpath.training.bench import MCRL_GROUPS, branch_profile, timed
 from toolpath.training.loop import TrainSettings, predict_logits
-
-
-def easy_split(n=192, seed=0):
-    """Straight lines (class index 0) against zig-zags (class index 3), at random scales and slopes."""
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 10, 50)
-    X, y = [], []
-    for k in range(n):
-        rough = k % 2
-        pts = np.column_stack([t, (1.5 * (np.arange(50) % 2) if rough else np.zeros(50))])
-        angle = rng.uniform(-0.3, 0.3)
-        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-        X.append(rng.uniform(0.5, 2) * pts @ rot.T)
-        y.append(3 * rough)
-    return np.asarray(X, dtype=np.float32), np.asarray(y)
-
-
-@pytest.fixture(scope="module")
-def trained_mlp():
-    X, y = easy_split()
-    settings = {"lr": 3e-3, "epochs": 15, "batch_size": 32, "decay_steps": 1000, "seed": 1}
-    clf = TorchClassifier({"_target_": "toolpath.models.MLP"}, settings).fit(X, y + 1)
-    return clf, X, y
 
 
 def test_qat_keeps_accuracy_saves_int8_and_reloads_identically(trained_mlp, tmp_path):

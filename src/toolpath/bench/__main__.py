@@ -1,10 +1,12 @@
-"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize] [--threads N]
+"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize|runtimes] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
 fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/optimize.json``:
 NACOA on one rough 50-point window at the paper's population settings (N = 1000, M0 = 10,
-M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Prints the tables.
+M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Writes
+``reports/bench/runtimes.json``: every model FP32 and INT8 in torch, ONNX Runtime and OpenVINO side by
+side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -97,7 +99,7 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize"), help="run one benchmark (default: all)")
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes"), help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
@@ -117,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {OUT / 'optimize.json'}")
         if args.only == "optimize":
             return 0
+    if args.only == "runtimes":
+        return _runtimes(args.threads, args.repeats)
     models = bench_models(args.threads, args.repeats)
     write_json({"machine": machine(torch.get_num_threads()), "models": models}, OUT / "models.json")
     table = Table(title=f"FP32 forward, batch 256, {args.threads} threads (median of {args.repeats})")
@@ -127,6 +131,30 @@ def main(argv: list[str] | None = None) -> int:
                       f"{row['windows_per_s']:,.0f}")
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
+    return _runtimes(args.threads, args.repeats) if args.only is None else 0
+
+
+def _runtimes(threads: int, repeats: int) -> int:
+    from toolpath.bench.runtimes import RUNTIMES, measure
+
+    cfg = config.load()
+    result = measure(list(cfg.benchmark.models), cfg.shapes[0], threads, repeats)
+    write_json(result, OUT / "runtimes.json")
+    table = Table(title=f"windows / s at batch {result['batch']}, {threads} threads; INT8 speed-up in the same runtime "
+                        f"and against the fastest FP32 (median of {repeats})")
+    for column in ("model", *[f"{r} {p}" for r in RUNTIMES for p in ("FP32", "INT8")], "best INT8 / FP32 same",
+                   "best INT8 / fastest FP32"):
+        table.add_column(column, justify="right")
+    for name, entry in result["models"].items():
+        rows = entry["variants"]
+        cells = [f"{rows[v]['windows_per_s']:,.0f} ({100 * rows[v]['test_accuracy']:.1f} %)" if v in rows else "-"
+                 for v in (f"{r}_{p}" for r in RUNTIMES for p in ("fp32", "int8"))]
+        int8 = [r for v, r in rows.items() if v.endswith("_int8") and "speedup_same_runtime" in r]
+        best = max(int8, key=lambda r: r["windows_per_s"]) if int8 else None
+        table.add_row(name, *cells, f"{best['speedup_same_runtime']:.2f}x" if best else "-",
+                      f"{best['speedup_vs_fastest_fp32']:.2f}x" if best else "-")
+    Console().print(table)
+    print(f"wrote {OUT / 'runtimes.json'}")
     return 0
 
 

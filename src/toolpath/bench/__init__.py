@@ -1,0 +1,1 @@
+"""Benchmarks, never timed tests: ``python -m toolpath.bench`` (``make bench``) writes ``reports/bench/*.json``."""

@@ -1,0 +1,151 @@
+"""Which runtime runs our INT8 models fastest here: the measurement behind Table 4's INT8 artefact.
+
+For each model, its trained FP32 network and its QAT INT8 graph (``models/int8/<shape>/<model>.pt2``,
+the learned scales included) are run side by side in one process by
+
+* torch: FP32 eager, and the INT8 graph eager (the reference graph: dequantize -> float op -> quantize);
+* ONNX Runtime: both exported to ONNX (``torch.onnx.export(..., dynamo=True)``; the INT8 graph becomes
+  a QDQ model, which ONNX Runtime fuses into QLinear kernels where it can);
+* OpenVINO: the same two ONNX files, compiled for the CPU with f32 as the inference precision (its
+  default on this CPU, bf16, changes FP32 predictions), its INT8 kernels taking the QDQ pairs.
+
+The same ONNX file runs in both runtimes, so the weights and scales timed are the ones QAT learned.
+Protocol as the benchmark stage's (:func:`toolpath.training.bench.timed`): fixed threads, warm-up,
+repetitions interleaved over every variant, medians; batch 1 and ``batch``.  Each variant's test-split
+accuracy is measured too, so a speed-up never hides an accuracy loss.  Timings vary from run to run.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+
+RUNTIMES = ("torch", "onnxruntime", "openvino")
+
+
+def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: torch.Tensor, path: Path) -> int:
+    """``model`` as an ONNX file with a dynamic batch dimension; returns its size in bytes."""
+    import warnings
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    batch = torch.export.Dim("batch", min=1, max=1 << 16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the exporter's deprecation and opset notes
+        if isinstance(model, torch.export.ExportedProgram):
+            program = model
+        else:
+            program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
+        torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
+                          verbose=False)
+    return path.stat().st_size
+
+
+def load_int8_program(path: Path) -> torch.export.ExportedProgram:
+    import torchao.quantization.pt2e  # noqa: F401 -- registers the quantize / dequantize ops the file uses
+
+    return torch.export.load(str(path))
+
+
+def onnxruntime_runner(path: Path, threads: int):
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
+    options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    name = session.get_inputs()[0].name
+    return lambda x: session.run(None, {name: x.numpy()})[0]
+
+
+def openvino_runner(path: Path, threads: int):
+    import openvino as ov  # its telemetry is in the model converters, which this does not use; make opts out
+
+    core = ov.Core()
+    compiled = core.compile_model(str(path), "CPU", {"INFERENCE_NUM_THREADS": threads, "NUM_STREAMS": 1,
+                                                     "INFERENCE_PRECISION_HINT": "f32",
+                                                     "PERFORMANCE_HINT": "LATENCY"})
+    request = compiled.create_infer_request()
+    return lambda x: request.infer({0: x.numpy()})[0]
+
+
+def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor, threads: int,
+            workdir: Path) -> tuple[dict, dict]:
+    """Every (runtime, precision) variant of one model as ``{"<runtime>_<fp32|int8>": callable}``, and the
+    ONNX file sizes.  A runtime that cannot load a file is left out with its reason under ``errors``."""
+    from toolpath.training import qat
+
+    variants: dict = {"torch_fp32": fp32.eval()}
+    sizes: dict = {"errors": {}}
+    sizes["onnx_fp32_bytes"] = export_onnx(fp32, example, workdir / "fp32.onnx")
+    files = {"fp32": workdir / "fp32.onnx"}
+    if int8_file is not None:
+        int8 = qat.load(int8_file)
+        int8.eval()
+        variants["torch_int8"] = int8
+        sizes["onnx_int8_bytes"] = export_onnx(load_int8_program(int8_file), example, workdir / "int8.onnx")
+        files["int8"] = workdir / "int8.onnx"
+    for runtime, make in (("onnxruntime", onnxruntime_runner), ("openvino", openvino_runner)):
+        for precision, file in files.items():
+            try:
+                variants[f"{runtime}_{precision}"] = make(file, threads)
+            except Exception as exc:  # a runtime that refuses a graph is a finding, not a crash
+                sizes["errors"][f"{runtime}_{precision}"] = f"{type(exc).__name__}: {str(exc)[:300]}"
+    return variants, sizes
+
+
+def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tuple[torch.Tensor, np.ndarray],
+            inputs: dict[str, torch.Tensor], threads: int, repeats: int, warmup: int = 2) -> dict:
+    """Timings, speed-ups and test accuracies of every variant of one model (module docstring)."""
+    from toolpath.training.bench import timed
+
+    with tempfile.TemporaryDirectory(prefix=f"runtimes-{name}-") as tmp:
+        variants, sizes = runners(fp32, int8_file, inputs["batch"][:2], threads, Path(tmp))
+        with torch.inference_mode():
+            accuracy = {v: float((np.asarray(_logits(run, test[0])).argmax(1) == test[1]).mean())
+                        for v, run in variants.items()}
+        seconds = timed(variants, inputs, repeats, warmup)
+    batch = len(inputs["batch"])
+    rows = {v: {"latency_b1_ms": 1e3 * s["b1"], "windows_per_s": batch / s["batch"], "test_accuracy": accuracy[v]}
+            for v, s in seconds.items()}
+    fastest_fp32 = max((r["windows_per_s"], v) for v, r in rows.items() if v.endswith("_fp32"))
+    for runtime in RUNTIMES:
+        if f"{runtime}_int8" in rows and f"{runtime}_fp32" in rows:
+            row = rows[f"{runtime}_int8"]
+            row["speedup_same_runtime"] = row["windows_per_s"] / rows[f"{runtime}_fp32"]["windows_per_s"]
+            row["speedup_vs_fastest_fp32"] = row["windows_per_s"] / fastest_fp32[0]
+    return {"variants": rows, "fastest_fp32": fastest_fp32[1], **sizes}
+
+
+def _logits(run, x: torch.Tensor, chunk: int = 1024) -> np.ndarray:
+    outs = [run(x[i:i + chunk]) for i in range(0, len(x), chunk)]
+    return np.concatenate([o.detach().numpy() if isinstance(o, torch.Tensor) else np.asarray(o) for o in outs])
+
+
+def measure(models: list[str], shape: str, threads: int, repeats: int, batch: int = 256, seed: int = 0) -> dict:
+    """:func:`compare` for each model of ``models`` on ``shape``'s pipeline artefacts (``make repro`` first)."""
+    from toolpath import artifacts, config, settings
+    from toolpath.artifacts import Split
+    from toolpath.training.bench import machine
+    from toolpath.training.classifier import from_checkpoint
+
+    cfg = config.load()
+    layout = settings.layout(cfg)
+    data = artifacts.load_windows(layout.windows_file(shape), shape)
+    windows, labels = data.part(Split.TEST)
+    test = (torch.as_tensor(windows, dtype=torch.float32), artifacts.category_index(labels))
+    pick = torch.randint(0, len(test[0]), (batch,), generator=torch.Generator().manual_seed(seed))
+    inputs = {"b1": test[0][pick[:1]], "batch": test[0][pick]}
+    torch.set_num_threads(threads)
+    out: dict = {"machine": machine(threads), "shape": shape, "batch": batch, "repeats": repeats, "models": {}}
+    for name in models:
+        fp32 = from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(shape, name), f"train@{shape}")).network_
+        int8_file = layout.int8_model(shape, name)
+        out["models"][name] = compare(name, fp32, int8_file if int8_file.is_file() else None, test, inputs,
+                                      threads, repeats)
+        out["models"][name]["fp32_checkpoint_bytes"] = layout.checkpoint(shape, name).stat().st_size
+        if int8_file.is_file():
+            out["models"][name]["int8_pt2_bytes"] = int8_file.stat().st_size
+    return out

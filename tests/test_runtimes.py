@@ -1,0 +1,58 @@
+"""The INT8 runtimes of toolpath.bench.runtimes on a QAT-trained MLP: the same ONNX files run in ONNX Runtime
+and OpenVINO and agree with torch (no timing here: speed lives in `make bench`)."""
+
+import numpy as np
+import pytest
+import torch
+
+from toolpath.training import qat
+from toolpath.training.loop import TrainSettings, predict_logits
+
+pytest.importorskip("onnxruntime", reason="the `runtimes` extra of pyproject.toml is not installed")
+pytest.importorskip("openvino", reason="the `runtimes` extra of pyproject.toml is not installed")
+
+from toolpath.bench import runtimes  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def int8_file(trained_mlp, tmp_path_factory):
+    clf, X, y = trained_mlp
+    result = qat.train_qat(clf.network_, X, y, TrainSettings(lr=3e-4, epochs=2, batch_size=32, seed=2), X, y,
+                           freeze_last=1, float_modules=("prepare", "net.0"))
+    path = tmp_path_factory.mktemp("int8") / "mlp.pt2"
+    qat.save(result.model, torch.as_tensor(X[:2]), path)
+    return path
+
+
+def test_fp32_onnx_gives_torch_logits_in_both_runtimes(trained_mlp, tmp_path):
+    clf, X, _ = trained_mlp
+    x = torch.as_tensor(X)
+    size = runtimes.export_onnx(clf.network_, x[:2], tmp_path / "fp32.onnx")
+    assert size > 0
+    expected = predict_logits(clf.network_, x).numpy()
+    for make in (runtimes.onnxruntime_runner, runtimes.openvino_runner):
+        got = make(tmp_path / "fp32.onnx", 1)(x)
+        np.testing.assert_allclose(got, expected, rtol=1e-4, atol=1e-4)
+
+
+def test_int8_onnx_runs_the_qat_scales_in_both_runtimes(trained_mlp, int8_file, tmp_path):
+    _, X, y = trained_mlp
+    x = torch.as_tensor(X)
+    reference = qat.load(int8_file)
+    expected = predict_logits(reference, x).argmax(1).numpy()
+    runtimes.export_onnx(runtimes.load_int8_program(int8_file), x[:2], tmp_path / "int8.onnx")
+    for make in (runtimes.onnxruntime_runner, runtimes.openvino_runner):
+        got = np.asarray(make(tmp_path / "int8.onnx", 1)(x)).argmax(1)
+        assert (got == expected).mean() >= 0.95  # INT8 kernels round differently from the reference graph
+        assert (got == y).mean() >= 0.9  # and the split is easy: the model still separates it
+
+
+def test_compare_reports_every_variant_with_accuracy_and_speedups(trained_mlp, int8_file):
+    clf, X, y = trained_mlp
+    x = torch.as_tensor(X)
+    out = runtimes.compare("mlp", clf.network_, int8_file, (x, y), {"b1": x[:1], "batch": x[:64]}, threads=1,
+                           repeats=1, warmup=0)
+    assert set(out["variants"]) == {f"{r}_{p}" for r in runtimes.RUNTIMES for p in ("fp32", "int8")}
+    assert not out["errors"] and out["onnx_int8_bytes"] > 0
+    assert all(0.9 <= v["test_accuracy"] <= 1 for v in out["variants"].values())
+    assert all("speedup_same_runtime" in out["variants"][f"{r}_int8"] for r in runtimes.RUNTIMES)
