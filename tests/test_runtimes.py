@@ -28,7 +28,8 @@ def test_fp32_onnx_gives_torch_logits_in_both_runtimes(trained_mlp, tmp_path):
     clf, X, _ = trained_mlp
     x = torch.as_tensor(X)
     size = runtimes.export_onnx(clf.network_, x[:2], tmp_path / "fp32.onnx")
-    assert size > 0
+    weights = sum(p.numel() for p in clf.network_.parameters())
+    assert size > 4 * weights and [f.name for f in tmp_path.iterdir()] == ["fp32.onnx"]  # FP32 weights inside
     expected = predict_logits(clf.network_, x).numpy()
     for make in (runtimes.onnxruntime_runner, runtimes.openvino_runner):
         got = make(tmp_path / "fp32.onnx", 1)(x)

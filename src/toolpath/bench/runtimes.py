@@ -38,8 +38,9 @@ def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: 
             program = model
         else:
             program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
+        # weights inside the one file (the exporter's default puts them in a .data file beside it)
         torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
-                          verbose=False)
+                          external_data=False, verbose=False)
     return path.stat().st_size
 
 
