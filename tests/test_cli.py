@@ -1,0 +1,41 @@
+"""The `toolpath` entry point: help, a sub-command, and clear refusals (no traceback)."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from toolpath.cli import main
+
+
+def test_help_lists_the_sub_commands(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    assert "stage-times" in capsys.readouterr().out
+
+
+def test_unknown_sub_command_is_one_clear_error(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["frobnicate"])
+    assert exit_info.value.code == 2
+    assert "invalid choice: 'frobnicate'" in capsys.readouterr().err
+
+
+def test_smooth_says_it_is_not_available_and_touches_nothing(tmp_path, capsys):
+    assert main(["smooth", str(tmp_path / "in.nc"), "-o", str(tmp_path / "out.nc")]) == 2
+    assert "not available yet" in capsys.readouterr().err and not list(tmp_path.iterdir())
+
+
+def test_stage_times_runs_through_the_entry_point(tmp_path):
+    out = tmp_path / "times.json"
+    code = main(["stage-times", "--out", str(out), "--", sys.executable, "-c",
+                 "print(\"Running stage 'a':\"); print(\"Running stage 'b@x':\")"])
+    assert code == 0 and set(json.loads(out.read_text())["stages"]) == {"a", "b@x"}
+
+
+def test_the_installed_command_starts():
+    done = subprocess.run([sys.executable, "-c", "from toolpath.cli import main; raise SystemExit(main(['--help']))"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and "Traceback" not in done.stderr
