@@ -66,3 +66,17 @@ def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):
     assert ops["float"] == {"linear": 1} and ops["int8"]["linear"] == 4  # the first of five layers stays float
     with pytest.raises(ValueError, match="has no module 'net.9'"):
         qat.train_qat(clf.network_, X, y, settings, X, y, freeze_last=1, float_modules=("net.9",))
+
+
+def test_every_configured_float_module_exists_in_its_model():
+    from pathlib import Path
+
+    from toolpath import config, settings
+    from toolpath.models.registry import build
+
+    cfg = config.compose_config(Path(__file__).resolve().parents[1], [])
+    float_modules = cfg.qat.float_modules
+    assert set(float_modules) == set(cfg.qat.models)  # each quantized model says what stays float
+    for name in cfg.qat.models:
+        known = {m for m, _ in build(settings.training(cfg, cfg.shapes[0], name)[0]).named_modules()}
+        assert set(float_modules[name]) <= known, name

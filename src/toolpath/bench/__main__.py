@@ -154,6 +154,9 @@ def _runtimes(threads: int, repeats: int) -> int:
         table.add_row(name, *cells, f"{best['speedup_same_runtime']:.2f}x" if best else "-",
                       f"{best['speedup_vs_fastest_fp32']:.2f}x" if best else "-")
     Console().print(table)
+    for name, entry in result["models"].items():
+        for variant, reason in entry["errors"].items():
+            print(f"{name}: {variant} could not run: {reason}")
     print(f"wrote {OUT / 'runtimes.json'}")
     return 0
 

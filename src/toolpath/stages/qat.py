@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from toolpath import artifacts, config, settings, tracking
+from toolpath.models.registry import build
 from toolpath.stages._common import clean_dir, progress, shape_arg
 from toolpath.training.qat import quantize_one
 
@@ -59,6 +60,14 @@ def main(argv: list[str] | None = None) -> None:
     torch.use_deterministic_algorithms(True)
     parts = training_parts(artifacts.load_windows(layout.windows_file(args.shape), args.shape), qcfg["train_windows"],
                            config.seed_for(cfg.seed, "qat", args.shape, "subset"))
+    float_modules = {name: list((qcfg.get("float_modules") or {}).get(name) or []) for name in qcfg["models"]}
+    for name, names in float_modules.items():
+        # a misspelt name is a configuration error, refused before any file is touched (QAT would
+        # refuse it too, but as one failed model of a stage that exits 0)
+        known = {module for module, _ in build(settings.training(cfg, args.shape, name)[0]).named_modules()}
+        if unknown := [n for n in names if n not in known]:
+            raise SystemExit(f"params.yaml: qat.float_modules.{name}: the {name} network has no module "
+                             f"{unknown[0]!r}")
     out_dir = clean_dir(layout.int8_dir(args.shape))
     report, timing = {"train_windows": int(len(parts["train"][0]))}, {}
     params = {**config.flat(qcfg, "qat"), **config.flat(cfg.train[args.shape], "schedule")}
@@ -72,8 +81,7 @@ def main(argv: list[str] | None = None) -> None:
             threads = max(1, cfg.train.common.threads // qcfg["workers"])
             jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,
                          settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
-                         layout.int8_model(args.shape, name), threads,
-                         list((qcfg.get("float_modules") or {}).get(name) or [])))
+                         layout.int8_model(args.shape, name), threads, float_modules[name]))
         # models are independent: spawned workers, results in submission order (same output for any order)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(_worker, job) for job in jobs]
