@@ -93,7 +93,9 @@ def test_mcrl_fused_with_branch_outputs_feeds_each_branch_the_previous_class_pro
 
     def record(key):
         def hook(module, inputs, output):
-            seen[key] = inputs[0]
+            # the first RNN takes (sequence, context) and fuses them itself
+            seen[key] = inputs[0] if len(inputs) == 1 else torch.cat(
+                [inputs[0], inputs[1][:, None, :].expand(-1, inputs[0].shape[1], -1)], dim=2)
         return hook
 
     for key, module in (("conv", net.conv), ("rnn", net.rnns[0]), ("lstm", net.lstms[0])):
@@ -104,6 +106,24 @@ def test_mcrl_fused_with_branch_outputs_feeds_each_branch_the_previous_class_pro
     assert parameter_count(net) < parameter_count(build({**CONFIGS["mcrl"], "fuse": "hidden"}))
     with pytest.raises(ValueError, match="fuse"):
         build({**CONFIGS["mcrl"], "fuse": "sum"})
+
+
+def test_context_rnn_is_the_rnn_of_the_fused_input():
+    """ContextRNN computes the context's share of the input projection once: the same function as
+    nn.RNN on [sequence | context] at every step, with the same parameters (checkpoints load both ways)."""
+    from toolpath.models.mcrl import ContextRNN, _fuse
+
+    torch.manual_seed(0)
+    fast, plain = ContextRNN(2, 5, 7), torch.nn.RNN(7, 7, batch_first=True)
+    plain.load_state_dict(fast.state_dict())
+    seq, context = torch.randn(4, 9, 2), torch.randn(4, 5)
+    assert torch.allclose(fast(seq, context), plain(_fuse(seq, context))[0], atol=1e-6)
+    # one step by hand: h1 = tanh(W_ih [s1 | c] + b_ih + b_hh), from h0 = 0
+    with torch.no_grad():
+        for p in fast.parameters():
+            p.fill_(0.1)
+    one = fast(torch.ones(1, 1, 2), torch.ones(1, 5))
+    assert torch.allclose(one, torch.full((1, 1, 7), float(np.tanh(0.1 * 7 + 0.2))))
 
 
 def test_input_preparation_keeps_local_curvature_and_normalises():

@@ -23,6 +23,8 @@ def test_qat_keeps_accuracy_saves_int8_and_reloads_identically(trained_mlp, tmp_
     assert ops["int8"].get("linear", 0) == 5 and not ops["float"]  # every MLP layer runs INT8
     size = qat.save(result.model, Xt[:2], tmp_path / "mlp.pt2")
     assert size > 0
+    qat.save(result.model, Xt[:2], tmp_path / "again" / "mlp.pt2")  # a second export of the same model
+    assert (tmp_path / "again" / "mlp.pt2").read_bytes() == (tmp_path / "mlp.pt2").read_bytes()
     reloaded = qat.load(tmp_path / "mlp.pt2")
     assert torch.equal(predict_logits(reloaded, Xt), predict_logits(result.model, Xt))
     tensors = qat.tensor_bytes(result.model)
@@ -40,12 +42,15 @@ def test_missing_int8_model_has_a_clear_error(tmp_path):
         qat.load(tmp_path / "nothing.pt2")
 
 
-def test_mcrl_keeps_rnn_and_lstm_float_after_qat():
+def test_mcrl_keeps_its_recurrent_layers_float_after_qat():
     X, y = easy_split(64)
     net = MCRL().eval()
     result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1)
     ops = qat.op_precision(result.model)
-    assert ops["int8"]["linear"] >= 20 and ops["float"]["lstm"] == 3 and ops["float"]["rnn_tanh"] == 3
+    # the fused RNN / LSTM kernels have no INT8 form; the first RNN's unrolled steps share one weight,
+    # which the x86 quantizer leaves float
+    assert ops["int8"]["linear"] >= 20 and ops["float"]["lstm"] == 3 and ops["float"]["rnn_tanh"] == 2
+    assert ops["float"]["linear"] == 22  # 20 steps, plus the sequence and context shares of W_ih
 
 
 def test_timed_and_branch_profile_report_every_part():

@@ -42,6 +42,14 @@ def _worker(job: tuple) -> tuple[dict, float, str | None]:
         return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
 
 
+def _expected_seconds(layout: artifacts.Layout, shape: str, model: str) -> float:
+    """The model's FP32 training time, a scheduling hint only (missing or unreadable: 0)."""
+    try:
+        return float(sum(artifacts.read_json(layout.train_timing(shape, model), "train")["train_seconds"]))
+    except (artifacts.ArtifactError, KeyError, TypeError, ValueError):  # a hint: the schedule never changes results
+        return 0.0
+
+
 def training_parts(data: artifacts.WindowSet, subset: int | None, seed: int) -> dict[str, tuple]:
     """Every split as (float32 windows, class index 0-3); the training split cut to a seeded ``subset``."""
     parts = {s.label: (data.part(s)[0].astype(np.float32), artifacts.category_index(data.part(s)[1]))
@@ -82,10 +90,12 @@ def main(argv: list[str] | None = None) -> None:
             jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,
                          settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
                          layout.int8_model(args.shape, name), threads, float_modules[name]))
-        # models are independent: spawned workers, results in submission order (same output for any order)
+        # models are independent: spawned workers, the longest first so two workers finish together;
+        # results are collected in config order (the same output for any schedule)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(_worker, job) for job in jobs]
-            outputs = [future.result() for future in progress(futures, f"qat {args.shape}")]
+            futures = {job[0]: pool.submit(_worker, job) for job in
+                       sorted(jobs, key=lambda job: -_expected_seconds(layout, args.shape, job[0]))}
+            outputs = [futures[job[0]].result() for job in progress(jobs, f"qat {args.shape}")]
         for (name, fp32_file, *_), (entry, seconds, failure) in zip(jobs, outputs, strict=True):
             fp32 = fp32_tests[name]
             if failure is not None:

@@ -136,9 +136,17 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
 
 
 def save(model: torch.fx.GraphModule, example: torch.Tensor, path: Path) -> int:
-    """Export the converted graph and save it as ``.pt2``; returns the file size in bytes."""
+    """Export the converted graph and save it as ``.pt2`` (the same bytes for the same model and
+    example); returns the file size in bytes."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    torch.export.save(export(model, example), str(path))
+    program = export(model, example)
+    # the provenance metadata holds Python object ids (graph_id), which differ run to run; without
+    # it the archive (and its content-derived serialization id) is the same bytes from the same seed
+    for graph_module in program.graph_module.modules():
+        if isinstance(graph_module, torch.fx.GraphModule):
+            for node in graph_module.graph.nodes:
+                node.meta.pop("from_node", None)
+    torch.export.save(program, str(path))
     return os.path.getsize(path)
 
 
