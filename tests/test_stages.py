@@ -51,8 +51,8 @@ def test_label_without_gcode_exits_with_a_message(smoke_dir):
 def test_label_names_file_and_line_of_a_malformed_program(smoke_dir):
     bad = smoke_dir / "data/gcode/gear/gear_000.nc"
     bad.parent.mkdir(parents=True)
-    bad.write_text("G21\nG1 X1 Y1\nG1 X#2\n")
-    with pytest.raises(SystemExit, match=r"gear_000.nc:3: '#' parameters"):
+    bad.write_text("G21\nG1 X1 Y1\nG1 X#<depth>\n")
+    with pytest.raises(SystemExit, match=r"gear_000.nc:3: word X: named parameter #<depth> is read before it is set"):
         label.main(["--shape", "gear"])
     runs = mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
     assert [r.info.status for r in runs if r.info.run_name == "label@gear"] == ["FAILED"]

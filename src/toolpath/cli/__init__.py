@@ -1,10 +1,8 @@
 """The ``toolpath`` command (``pyproject.toml``'s entry point): the tools around the pipeline, one
 sub-command each.  The stages themselves run through ``dvc repro`` (:mod:`toolpath.stages`).
 
+    toolpath smooth IN.nc -o OUT.nc [--tolerance 0.01] [--report R.json|R.html]   smooth a program (Sec. 5.3)
     toolpath stage-times [--out FILE] -- dvc repro     time every DVC stage of a command
-
-``toolpath smooth`` (rewrite a rough G-code program within a tolerance) is not written yet: it is
-issue 23, and the command says so rather than offering a sub-command that does nothing.
 """
 
 from __future__ import annotations
@@ -12,20 +10,16 @@ from __future__ import annotations
 import argparse
 import sys
 
-COMMANDS = {"stage-times": ("toolpath.cli.stage_times", "time every DVC stage of a command (e.g. dvc repro)")}
+COMMANDS = {"smooth": ("toolpath.cli.smooth", "smooth a rough G-code program within a two-sided tolerance"),
+            "stage-times": ("toolpath.cli.stage_times", "time every DVC stage of a command (e.g. dvc repro)")}
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    parser = argparse.ArgumentParser(prog="toolpath", description="Tools around the toolpath-lab pipeline.",
-                                     epilog="`toolpath smooth` (issue 23) is not available yet.")
+    parser = argparse.ArgumentParser(prog="toolpath", description="Tools around the toolpath-lab pipeline.")
     parser.add_argument("command", choices=sorted(COMMANDS), help="; ".join(f"{k}: {v[1]}" for k, v in
                                                                             COMMANDS.items()))
     parser.add_argument("args", nargs=argparse.REMAINDER, help="the sub-command's own arguments (see --help)")
-    if argv and argv[0] == "smooth":
-        print("toolpath: `toolpath smooth` is not available yet (issue 23); no file was read or written",
-              file=sys.stderr)
-        return 2
     args = parser.parse_args(argv[:1])
     from importlib import import_module
 

@@ -1,4 +1,4 @@
-"""Split one RS-274 line into words.  Used by :mod:`toolpath.gcode.reader`.
+"""Split one RS-274 line into words (parameters and expressions evaluated).  Used by :mod:`toolpath.gcode.reader`.
 
 Handles what CAM systems really write: compact words (``G1X1.5Y-2``), lowercase, zero-padded
 numbers (``G01``), spaces between a letter and its number, ``( )`` and ``;`` comments (also after
@@ -12,11 +12,13 @@ import re
 from dataclasses import dataclass
 
 from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.expressions import ExpressionError, Parameters, Scanner
 
 # A word is a letter and a real number; LinuxCNC also allows blanks between sign and digits.
 _NUMBER = re.compile(r"\s*([+-]?)\s*(\d+\.?\d*|\.\d+)")
 _KNOWN_LETTERS = set("GMNFSTHDXYZIJKRPQL")
 _UNSUPPORTED_AXES = set("ABCUVWE")
+_FUNCTION_CALL = re.compile(r"(ABS|ACOS|ASIN|ATAN|COS|EXISTS|EXP|FIX|FUP|ROUND|LN|SIN|SQRT|TAN)\s*\[", re.IGNORECASE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,6 +37,7 @@ class Block:
     words: tuple[Word, ...]
     percent: bool = False
     block_delete: bool = False
+    assignments: tuple[tuple[int | str, float], ...] = ()  # to apply when the line runs (after all its values)
 
 
 def _strip_comments(body: str, source: str, lineno: int) -> str:
@@ -59,14 +62,18 @@ def _strip_comments(body: str, source: str, lineno: int) -> str:
     return "".join(out)
 
 
-def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
+def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Parameters | None = None) -> Block:
     """Split one line (without its line ending) into a :class:`Block`.
+
+    With ``params`` (the reader's parameter table), ``#`` parameters, assignments and ``[ ]``
+    expressions are evaluated (:mod:`toolpath.gcode.expressions`); the line's assignments are
+    returned in the block, for the reader to apply if the line runs.  Without, they are refused.
 
     Raises
     ------
     GCodeError
-        For malformed words and for features the reader does not support: ``#`` parameters,
-        ``[ ]`` expressions, O-word control flow, rotary or extruder axes.
+        For malformed words and for features the reader does not support: ``#`` parameters and
+        ``[ ]`` expressions without ``params``, O-word control flow, rotary or extruder axes.
     """
     stripped = line.strip()
     if stripped.startswith("%"):
@@ -74,6 +81,7 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
     deleted = stripped.startswith("/")
     body = _strip_comments(stripped[1:] if deleted else stripped, source, lineno)
     words: list[Word] = []
+    assignments: list[tuple[int | str, float]] = []
     i, n = 0, len(body)
     while i < n:
         ch = body[i]
@@ -81,9 +89,12 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
             i += 1
             continue
         if ch == "#":
-            raise GCodeError(source, lineno, "'#' parameters and expressions are not supported")
+            if params is None:
+                raise GCodeError(source, lineno, "'#' parameters and expressions are not supported")
+            i = _assignment(body, i, params, assignments, source, lineno)
+            continue
         if ch in "[]":
-            raise GCodeError(source, lineno, "'[ ]' expressions are not supported")
+            raise GCodeError(source, lineno, "an expression '[ ]' must follow a word letter or '='")
         upper = ch.upper()
         if upper == "O":
             raise GCodeError(source, lineno, "O-word control flow (subroutines, loops) is not supported")
@@ -94,6 +105,15 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
         if upper not in _KNOWN_LETTERS:
             raise GCodeError(source, lineno, f"unknown word letter {upper!r}")
         match = _NUMBER.match(body, i + 1)
+        if match is None and params is not None and _starts_value(body, i + 1):
+            scanner = Scanner(body, params, i + 1)
+            try:
+                value = scanner.value()
+            except ExpressionError as exc:
+                raise GCodeError(source, lineno, f"word {upper}: {exc}") from None
+            words.append(Word(upper, body[i + 1 : scanner.pos].strip(), value))
+            i = scanner.pos
+            continue
         if match is None:
             following = body[i + 1 : i + 2]
             if following == "#":
@@ -104,4 +124,25 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0) -> Block:
         text = match.group(1) + match.group(2)
         words.append(Word(upper, text, float(text)))
         i = match.end()
-    return Block(words=tuple(words), block_delete=deleted)
+    return Block(words=tuple(words), block_delete=deleted, assignments=tuple(assignments))
+
+
+def _starts_value(body: str, pos: int) -> bool:
+    """Whether a word's value at ``pos`` is a parameter, expression or function rather than missing."""
+    rest = body[pos:].lstrip(" \t")
+    return bool(rest) and (rest[0] in "#[+-" or _FUNCTION_CALL.match(rest) is not None)
+
+
+def _assignment(body: str, pos: int, params: Parameters, out: list, source: str, lineno: int) -> int:
+    """``#key = value`` at ``pos``: evaluate now (with the parameters as before the line), record it."""
+    scanner = Scanner(body, params, pos)
+    try:
+        key = scanner.parameter_key()
+        scanner._skip()
+        if not body.startswith("=", scanner.pos):
+            raise ExpressionError("a parameter outside a word must be set with '='")
+        scanner.pos += 1
+        out.append((key, scanner.value()))
+    except ExpressionError as exc:
+        raise GCodeError(source, lineno, str(exc)) from None
+    return scanner.pos

@@ -1,14 +1,16 @@
 """Read RS-274 milling G-code into tool positions.  Run: python -m toolpath.gcode FILE...
 
-Supported: G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices, P turns),
+Supported: LinuxCNC's numbered and named parameters and ``[ ]`` expressions
+(:mod:`toolpath.gcode.expressions`), G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices, P turns),
 G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
 and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
-block delete ``/``, CRLF and tabs.  Work offsets (G54-G59), tool length offsets (G43/G49) and
+block delete ``/``, CRLF and tabs; G28/G30 returns to their stored positions (G28.1/G30.1 store
+them).  Work offsets (G54-G59), tool length offsets (G43/G49) and
 path-control modes (G61/G64) are accepted and do not move the XY path.  After M2 or M30 the
 program has ended, as on a controller: later lines are kept in ``Program.lines`` but not run.
 
-Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, ``#`` parameters, O-words,
-NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G28/G30/G53
+Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, O-words,
+NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G53
 and every malformed word.
 """
 
@@ -22,6 +24,7 @@ import numpy as np
 
 from toolpath.gcode.arcs import centre_from_radius, discretise_arc
 from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
 
 MM_PER_INCH = 25.4
@@ -92,7 +95,6 @@ _ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95
 _REJECTED_G = {
     5: "splines (G5.x) are not supported", 6: "NURBS (G6.2) is not supported",
     18: "only the XY plane (G17) is supported, not G18", 19: "only the XY plane (G17) is supported, not G19",
-    28: "G28 (return home) is not supported", 30: "G30 (return to position) is not supported",
     41: "cutter compensation (G41) is not supported", 42: "cutter compensation (G42) is not supported",
     53: "machine coordinates (G53) are not supported",
 }
@@ -124,6 +126,7 @@ class _Interpreter:
         self.offset = np.zeros(3)
         self.feed: float | None = None
         self.ended = False
+        self.params = Parameters()
         self.points: list[np.ndarray] = []
         self.kinds: list[int] = []
         self.point_lines: list[int] = []
@@ -149,7 +152,7 @@ class _Interpreter:
                 raise self.fail(lineno, _REJECTED_G[major])
             elif code == major and major in _CANNED:
                 raise self.fail(lineno, f"canned cycle G{major} is not supported")
-            elif code in (20, 21, 90, 91, 90.1, 91.1, 92, 92.1, 92.2, 92.3) or (
+            elif code in (20, 21, 90, 91, 90.1, 91.1, 92, 92.1, 92.2, 92.3, 28, 28.1, 30, 30.1) or (
                 code == major and major in _ACCEPTED_G
             ):
                 others.append(code)
@@ -160,6 +163,8 @@ class _Interpreter:
     def run_block(self, block: Block, lineno: int) -> None:
         if block.percent or self.ended or (block.block_delete and self.opt.block_delete):
             return
+        for key, value in block.assignments:  # after every value on the line was read with the old ones
+            self.params.set(key, value)
         seen: set[str] = set()
         for w in block.words:
             if w.letter in seen and w.letter not in "GM":
@@ -198,6 +203,14 @@ class _Interpreter:
         if 92 in others or 92.1 in others or 92.2 in others:
             self._set_offset(others, values)
             return
+        for code, first in ((28, 5161), (30, 5181)):
+            if code + 0.1 in others:  # G28.1 / G30.1: remember where the tool is
+                for i in range(3):
+                    self.params.set(first + i, float(self.pos[i]))
+                return
+            if code in others:
+                self._home(values, first, lineno)
+                return
         if motion is not None:
             self.motion = motion
         axes = [a for a in "XYZ" if a in values]
@@ -208,6 +221,22 @@ class _Interpreter:
         if self.motion is None:
             raise self.fail(lineno, "axis words with no motion mode in effect (after G80)")
         self._move(values, lineno)
+
+    def _home(self, values: dict[str, float], first: int, lineno: int) -> None:
+        """G28 / G30 (LinuxCNC): with axis words, a rapid to that point, then a rapid of those axes
+        only to the stored position (parameters 5161-5163 / 5181-5183, 0 until G28.1 / G30.1);
+        without, a rapid of every axis there.  The stored position is in the reader's frame
+        (no G92 offset), mm, as a machine configured in mm keeps it."""
+        axes = [i for i, a in enumerate("XYZ") if a in values]
+        if axes:
+            via = self._target(values)
+            self._emit(via[None, :], Motion.RAPID, lineno)
+            self.pos = via
+        home = self.pos.copy()
+        for i in axes or range(3):
+            home[i] = self.params.get(first + i)
+        self._emit(home[None, :], Motion.RAPID, lineno)
+        self.pos = home
 
     def _set_offset(self, others: list[float], values: dict[str, float]) -> None:
         if 92 in others:
@@ -283,7 +312,7 @@ def read_text(text: str, source: str = "<string>", options: ReaderOptions | None
     lines = split_lines(text)
     states = [interp.state()]
     for lineno, raw in enumerate(lines, start=1):
-        block = tokenize(raw.rstrip("\r\n"), source, lineno)
+        block = tokenize(raw.rstrip("\r\n"), source, lineno, interp.params)
         interp.run_block(block, lineno)
         states.append(interp.state())
     pts = np.array(interp.points, dtype=float).reshape(-1, 3)

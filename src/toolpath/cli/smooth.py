@@ -1,0 +1,224 @@
+"""``toolpath smooth IN -o OUT``: a rough G-code program in, a smoother one out (Sec. 5.3), within a
+two-sided tolerance, with nothing else changed.
+
+It reads the program, cuts its feed moves into 50-point windows, classifies each (the exact
+LocalCurvature rule by default, or a trained FP32 ``.pt`` / INT8 ``.pt2`` model), smooths the rough
+ones with the method their category maps to (mean filter, Bezier fit, NACOA; ``--method`` forces one)
+and rewrites the X/Y numbers of the moved G1 lines only (:mod:`toolpath.optimize.rewrite`).  The
+output is written to a temporary file and renamed; the input is never overwritten unless
+``--in-place``, which first keeps it as ``IN.bak``.  Problems in the input stop with ``FILE:LINE:
+message`` and exit code 1; wrong options with exit code 2.
+
+The smoothing settings and machine limits are the pipeline's defaults (``params.yaml``: ``optimize``
+and ``feedrate``), repeated here so the command runs outside the repository; a test keeps them equal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+#: ``optimize`` settings of params.yaml the command smooths with (tolerance and mode are its own)
+SMOOTHING = {
+    "penalty_weight": 10.0, "box": 0.25, "mean_filter": {"width": 5, "passes": 3}, "bezier": {"degree": 5},
+    "nacoa": {"population": 30, "generations": 50, "hba_generations": 5, "alpha1": 2.0, "beta": 6.0, "alpha_max": 1.0,
+              "alpha_min": 0.1, "m0": 10, "m_min": 2, "m_max": 10, "exchange_every": 10, "eta0": 0.01,
+              "decay": 0.02, "gradient": "exact", "eps": 1.0e-05, "init": "perturb", "normalise": "point"},
+}
+DISPATCH = {2: "mean_filter", 3: "bezier", 4: "nacoa"}
+#: ``feedrate.machine`` and ``feedrate.blend_tolerance`` of params.yaml: the machining-time estimate
+MACHINE = {"feed": 100.0, "period": 0.001, "chord_error": 0.001, "contour_error": 0.005,
+           "normal_acceleration": 2000.0, "normal_jerk": 50000.0, "tangential_acceleration": 2000.0,
+           "tangential_jerk": 50000.0, "kp": 400.0, "inertia": 0.01, "damping": 1.0}
+BLEND_TOLERANCE = 0.005
+METHODS = {"dispatch": "dispatch", "mean": "mean_filter", "mean_filter": "mean_filter", "bezier": "bezier",
+           "nacoa": "nacoa"}
+
+
+class UsageError(Exception):
+    """A wrong option or path: exit code 2."""
+
+
+class InputError(Exception):
+    """A problem in what the command was given to read: exit code 1."""
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="toolpath smooth", description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("input", type=Path, help="the G-code program to smooth")
+    p.add_argument("-o", "--output", type=Path, help="where to write the smoothed program (not the input)")
+    p.add_argument("--in-place", action="store_true", help="rewrite the input itself, keeping it first as IN.bak")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output (or IN.bak) file")
+    p.add_argument("--tolerance", type=float, default=0.01,
+                   help="largest two-sided distance (mm) between the new path and the old (default 0.01)")
+    p.add_argument("--classifier", default="rule",
+                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt or an INT8 MODEL.pt2")
+    p.add_argument("--method", default="dispatch", choices=sorted(METHODS),
+                   help="dispatch (category 2 mean, 3 Bezier, 4 NACOA: Sec. 5.3) or one method for all rough windows")
+    p.add_argument("--report", type=Path, help="write a report: REPORT.json, or REPORT.html with the path drawn")
+    p.add_argument("--plot", type=Path, help="draw the path before and after, rough windows marked: PLOT.png or .svg")
+    p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
+    return p
+
+
+def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
+    """Where the program goes, and where the input's backup goes (``--in-place`` only)."""
+    if not args.input.is_file():
+        raise UsageError(f"{args.input}: no such file")
+    if args.report is not None and args.report.suffix.lower() not in (".json", ".html"):
+        raise UsageError(f"{args.report}: a report is .json or .html")
+    if args.plot is not None and args.plot.suffix.lower() not in (".png", ".svg"):
+        raise UsageError(f"{args.plot}: a plot is .png or .svg")
+    if args.in_place:
+        if args.output is not None:
+            raise UsageError("--in-place writes the input itself; leave out -o")
+        backup = args.input.with_name(args.input.name + ".bak")
+        if backup.exists() and not args.force:
+            raise UsageError(f"{backup}: the backup of an earlier --in-place run exists; move it or pass --force")
+        return args.input, backup
+    if args.output is None:
+        raise UsageError("say where to write: -o OUT (or --in-place)")
+    if args.output.resolve() == args.input.resolve():
+        raise UsageError(f"{args.output}: that is the input; use --in-place to rewrite it (a backup is kept)")
+    if args.output.exists() and not args.force:
+        raise UsageError(f"{args.output}: exists; pass --force to overwrite it")
+    if not args.output.parent.is_dir():
+        raise UsageError(f"{args.output.parent}: no such directory")
+    return args.output, None
+
+
+def classifier(spec: str):
+    """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
+    if spec == "rule":
+        from toolpath.models.rule import LocalCurvatureRule
+
+        rule = LocalCurvatureRule()
+        return rule.predict
+    path = Path(spec)
+    if not path.is_file():
+        raise UsageError(f"{spec}: no such model file (or say --classifier rule)")
+    import torch
+
+    if path.suffix == ".pt2":
+        from toolpath.training.qat import load
+
+        try:
+            network = load(path)
+        except Exception as exc:  # noqa: BLE001 - any failure to load is the file's problem, said in one line
+            raise InputError(f"{path}: not a readable INT8 model ({type(exc).__name__})") from None
+    else:
+        from toolpath.artifacts import load_checkpoint
+        from toolpath.training.classifier import from_checkpoint
+
+        try:
+            model = from_checkpoint(load_checkpoint(path, "train"))
+        except SystemExit as exc:  # ArtifactError: its message names a pipeline stage, not this command
+            raise InputError(f"{path}: not a readable model checkpoint ({str(exc).split(': ', 1)[-1][:120]})") \
+                from None
+        return lambda X: np.asarray(model.predict(np.asarray(X, np.float32)))
+    from toolpath.training.loop import predict_logits
+
+    def predict(X: np.ndarray) -> np.ndarray:
+        logits = predict_logits(network, torch.as_tensor(np.asarray(X, np.float32)))
+        return logits.argmax(1).numpy() + 1
+
+    return predict
+
+
+def machining_time(runs_before: list[np.ndarray], runs_after: list[np.ndarray]) -> tuple:
+    """Seconds the feed planner needs for every feed run before and after, under :data:`MACHINE`
+    (a run the rewrite left alone is planned once); (None, None, why) when a run cannot be planned."""
+    from toolpath.feedrate import Machine, plan, polyline_radius
+
+    machine, before, after = Machine(**MACHINE), 0.0, 0.0
+    try:
+        for old, new in zip(runs_before, runs_after, strict=True):
+            if len(old) < 2:
+                continue
+            t = plan(old, polyline_radius(old, BLEND_TOLERANCE), machine).time
+            before += t
+            after += t if np.array_equal(old, new) else plan(new, polyline_radius(new, BLEND_TOLERANCE), machine).time
+    except ValueError as exc:
+        return None, None, str(exc)
+    return before, after, None
+
+
+def _progress(items: list) -> list:
+    if not sys.stderr.isatty() or len(items) < 2:
+        return items
+    from rich.progress import track
+
+    return track(items, description="smoothing", console=None, transient=True)
+
+
+def run(args: argparse.Namespace) -> dict:
+    from toolpath.gcode import GCodeError, read_file
+    from toolpath.optimize.rewrite import RewriteOptions, smooth_program
+    from toolpath.reports.smooth_report import summary, write_plot, write_report
+
+    if not (np.isfinite(args.tolerance) and args.tolerance > 0):
+        raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
+    output, backup = _paths(args)
+    predict = classifier(args.classifier)
+    try:
+        program = read_file(args.input)
+        options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
+                                 mapping=DISPATCH, seed=args.seed)
+        result = smooth_program(program, predict, options, progress=_progress)
+    except GCodeError as exc:
+        raise InputError(str(exc)) from None
+    report = summary(args, program, result, machining_time(result.runs_before, result.runs_after), MACHINE)
+    data = result.text.encode("utf-8", errors="surrogateescape")  # undecodable bytes come back as they were
+    if backup is not None:
+        _atomic_write(backup, args.input.read_bytes())
+    _atomic_write(output, data)
+    if args.report is not None:
+        write_report(args.report, report, result)
+    if args.plot is not None:
+        write_plot(args.plot, result)
+    return report
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    """Write to a temporary file beside ``path``, then rename: a reader never sees half a program."""
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(handle, "wb") as fh:
+            fh.write(data)
+        if path.exists():
+            os.chmod(temporary, path.stat().st_mode & 0o7777)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = parser()
+    args = p.parse_args(argv)
+    try:
+        report = run(args)
+    except UsageError as exc:
+        p.print_usage(sys.stderr)
+        print(f"toolpath smooth: error: {exc}", file=sys.stderr)
+        return 2
+    except InputError as exc:
+        print(f"toolpath smooth: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        print(f"toolpath smooth: {exc.filename or ''}: {exc.strerror}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # noqa: BLE001 - a user gets one line, never a traceback; the output is not written
+        print(f"toolpath smooth: internal error, no file written: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 3
+    w = report["windows"]
+    print(f"{args.input} -> {report['output']}: {w['total']} windows ({w['smoothed']} smoothed), "
+          f"{report['lines_changed']} lines changed, largest deviation {report['largest_deviation_mm']:.4f} mm "
+          f"(tolerance {args.tolerance} mm)", file=sys.stderr)
+    return 0

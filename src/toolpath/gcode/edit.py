@@ -1,0 +1,147 @@
+"""Change the X/Y numbers of single G1 lines in place, leaving every other character of the line alone.
+
+``toolpath smooth`` moves points, never adds or removes them: each moved point is the end point of
+exactly one ``G1`` line, so the rewrite is a substitution of that line's X and Y numbers.  N words,
+F/S/T/M words, comments, spacing, letter case and the line ending stay as they were.  Which lines
+qualify is :func:`movable_lines`; everything else is kept byte for byte by construction.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from toolpath.gcode.lexer import tokenize
+from toolpath.gcode.reader import MM_PER_INCH, Motion, Program
+
+# a plain number as the lexer reads it (blanks allowed after the letter and around the sign)
+_PLAIN = re.compile(r"\s*[+-]?\s*(\d+\.?\d*|\.\d+)")
+
+
+@dataclass(frozen=True)
+class AxisWord:
+    """Where an axis word's number sits in a line: ``line[start:end]`` is ``X-1.250`` (letter included)."""
+
+    start: int
+    end: int
+    decimals: int
+
+
+def _code_spans(line: str) -> list[tuple[int, int]]:
+    """Spans of ``line`` outside ``( )`` and ``;`` comments."""
+    spans, start, i = [], 0, 0
+    while i < len(line):
+        ch = line[i]
+        if ch == ";":
+            spans.append((start, i))
+            return spans
+        if ch == "(":
+            spans.append((start, i))
+            close = line.find(")", i + 1)
+            i = len(line) if close < 0 else close + 1
+            start = i
+            continue
+        i += 1
+    spans.append((start, len(line)))
+    return spans
+
+
+def axis_words(line: str) -> dict[str, AxisWord]:
+    """The X and Y words of a line whose numbers are plain (not ``#`` parameters or expressions)."""
+    found: dict[str, AxisWord] = {}
+    if any(c in line[lo:hi] for lo, hi in _code_spans(line) for c in "#["):
+        return {}  # values computed from parameters: the line is not ours to rewrite
+    for lo, hi in _code_spans(line):
+        i = lo
+        while i < hi:
+            letter = line[i].upper()
+            if letter in "XY":
+                match = _PLAIN.match(line, i + 1, hi)
+                if match is None:
+                    return {}  # X#1, X[...]: not a number we can rewrite
+                digits = match.group(1)
+                found[letter] = AxisWord(i, match.end(), len(digits.split(".")[1]) if "." in digits else 0)
+                i = match.end()
+                continue
+            i += 1
+    return found
+
+
+def movable_lines(program: Program) -> np.ndarray:
+    """Per line (index 0 = line 1): True when the line is one straight feed move whose X/Y numbers can
+    be substituted without changing anything else it does.
+
+    That is: it reaches exactly one point, by G1, in the XY plane at the Z it started from; its X and
+    Y numbers (where present) are plain numbers; and it holds no word that acts beyond the move
+    (G other than 1, M, S, T, H, D, P, R, I/J/K).  An F word stays on the line with its value.
+    """
+    counts = np.bincount(program.lines_of_points, minlength=len(program.lines) + 1)[1:]
+    last_kind = np.full(len(program.lines) + 1, -1)
+    last_kind[program.lines_of_points] = program.kinds
+    ok = (counts == 1) & (last_kind[1:] == Motion.FEED)
+    for index in np.flatnonzero(ok):
+        lineno = index + 1
+        before, after = program.states[lineno - 1], program.states[lineno]
+        if after.position[2] != before.position[2]:  # a ramp: its XY is not all it does
+            ok[index] = False
+            continue
+        raw = program.lines[index].rstrip("\r\n")
+        if any(c in raw[lo:hi] for lo, hi in _code_spans(raw) for c in "#["):
+            ok[index] = False  # X/Y/Z or F from parameters: substituting a number would cut the link
+            continue
+        words = tokenize(raw, program.source, lineno).words
+        if any(w.letter not in "GXYZNF" or (w.letter == "G" and w.value != 1.0) for w in words):
+            ok[index] = False
+            continue
+        letters = {w.letter for w in words}
+        if len(axis_words(raw)) != len(letters & set("XY")):
+            ok[index] = False
+    return ok
+
+
+def format_number(value: float, decimals: int) -> str:
+    """Fixed point as CAM posts write it, never ``-0.000``."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def substitute_xy(line: str, values: dict[str, str]) -> str:
+    """``line`` with the numbers of its X/Y words replaced by ``values`` (letter -> number text).
+
+    A word the line lacks (modal) is inserted: X before the Y word, Y after the X word, or at the end
+    of the code before any comment; the line's ending is kept.
+    """
+    body = line.rstrip("\r\n")
+    ending = line[len(body):]
+    words = axis_words(body)
+    edits: list[tuple[int, int, str]] = []
+    for letter, number in values.items():
+        if letter in words:
+            w = words[letter]
+            case = body[w.start]
+            edits.append((w.start, w.end, f"{case}{number}"))
+    missing = [letter for letter in values if letter not in words]
+    for letter in missing:
+        text = f"{letter}{values[letter]}"
+        if letter == "X" and "Y" in words:
+            edits.append((words["Y"].start, words["Y"].start, text + " "))
+        elif letter == "Y" and "X" in words:
+            end = words["X"].end
+            edits.append((end, end, " " + text))
+        else:
+            code_end = _code_spans(body)[0][1]
+            while code_end > 0 and body[code_end - 1].isspace():
+                code_end -= 1
+            edits.append((code_end, code_end, " " + text))
+    for start, end, text in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
+        body = body[:start] + text + body[end:]
+    return body + ending
+
+
+def program_coordinates(program: Program, lineno: int, xy_mm: np.ndarray) -> np.ndarray:
+    """A point (mm, reader frame) as the X/Y numbers line ``lineno`` would write in absolute mode."""
+    state = program.states[lineno - 1]
+    scale = MM_PER_INCH if state.inch else 1.0
+    return (np.asarray(xy_mm, float) - np.asarray(state.offset[:2])) / scale

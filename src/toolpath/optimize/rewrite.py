@@ -1,0 +1,233 @@
+"""Sec. 5.3's preprocessing module on a whole program: window its feed moves, classify each window,
+smooth the rough ones with the method their category maps to, and rewrite only the moved points.
+
+The edit is a substitution of X/Y numbers on single G1 lines (:mod:`toolpath.gcode.edit`): points
+are moved, never added or removed, so every other line, word and comment stays as it was.
+
+Tolerance, both ways and across joins.  Each rough window is smoothed in ``bound`` mode
+(:mod:`toolpath.optimize.problem`), where every point moves at most ``tolerance - rounding`` and the
+stretch's two end points stay; writing the numbers at the line's precision moves a point by at most
+``rounding`` = half a unit of the last decimal (times sqrt 2 in the plane).  So every point moves at
+most ``tolerance``, which bounds the Frechet, hence the two-sided Hausdorff, distance of each changed
+stretch; stretches share no segment and everything between them is unchanged, so the whole path is
+within ``tolerance`` of the original both ways.  :func:`smooth_program` re-reads its own output and
+measures the exact two-sided distance of every stretch before it returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from toolpath.gcode.edit import axis_words, format_number, movable_lines, program_coordinates, substitute_xy
+from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
+from toolpath.geometry.curvature import local_curvature
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.labels.windows import feed_runs
+from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth
+
+MIN_POINTS = 5  # a stretch shorter than this has too few interior points to smooth
+DEFAULT_DECIMALS = {False: 3, True: 4}  # mm, inch: where a line gives no decimals of its own
+
+
+@dataclass(frozen=True)
+class RewriteOptions:
+    """What ``toolpath smooth`` does; ``smoothing`` is the ``optimize`` config (mean_filter, bezier, nacoa...)."""
+
+    tolerance: float
+    smoothing: Mapping
+    method: str = "dispatch"
+    mapping: Mapping = field(default_factory=lambda: {2: "mean_filter", 3: "bezier", 4: "nacoa"})
+    window: int = 50
+    seed: int = 0
+
+
+@dataclass
+class WindowRecord:
+    """One classified window: its lines, category, what was done and what it cost in deviation."""
+
+    run: int
+    first_line: int
+    last_line: int
+    category: int
+    method: str
+    curvature_before: float
+    curvature_after: float | None = None
+    deviation_mm: float = 0.0
+    lines_changed: int = 0
+    status: str = "unchanged"  # smoothed | unchanged | smooth already | kept: <reason>
+
+
+@dataclass
+class Rewrite:
+    """The result: the new text, the per-window records and the runs' points before and after."""
+
+    text: str
+    windows: list[WindowRecord]
+    runs_before: list[np.ndarray]
+    runs_after: list[np.ndarray]
+    changed_lines: list[int]
+
+
+def _stretches(lines: np.ndarray, movable: np.ndarray, quiet: np.ndarray, program: Program, first: int,
+               last: int) -> tuple[list[tuple[int, int]], str]:
+    """Maximal point ranges ``[a, b]`` inside window points ``first..last`` whose interior points each
+    sit on their own movable line, with nothing between their lines that moves the tool or changes a
+    mode; the stretch's end point is fixed and its line must be a G1 stating X and Y (:func:`_closes`)."""
+    if not program.states[int(lines[first])].absolute:
+        return [], "incremental (G91) moves are kept as they are"
+
+    def gap_ok(k: int) -> bool:  # nothing happens on the lines strictly between points k - 1 and k
+        lo, hi = int(lines[k - 1]), int(lines[k])
+        return lo < hi and quiet[hi - 1] - quiet[lo] == 0
+
+    free = np.zeros(last + 1, bool)
+    for k in range(first + 1, last):
+        free[k] = bool(movable[int(lines[k]) - 1]) and gap_ok(k) and gap_ok(k + 1)
+    out, k, reason = [], first, "no movable G1 lines (arcs, Z moves or words the rewrite does not own)"
+    while k < last:
+        if not free[k + 1]:
+            k += 1
+            continue
+        a = k
+        while k + 1 < last and free[k + 1]:
+            k += 1
+        b = k + 1
+        # the line that ends the stretch starts at a moved point: it must be a G1 (an arc's centre would
+        # move with its start) and state X and Y itself (later lines may rely on them modally)
+        while b > a + 1 and not _closes(program, movable, lines, b):
+            b -= 1
+        if b - a + 1 >= MIN_POINTS:
+            out.append((a, b))
+        else:
+            reason = "too few movable G1 lines in a row"
+    return out, reason
+
+
+def _quiet_prefix(program: Program) -> np.ndarray:
+    """Cumulative count of lines that move the tool or change absolute / units / offsets (index = line)."""
+    counts = np.bincount(program.lines_of_points, minlength=len(program.lines) + 1)
+    busy = counts > 0
+    for line in range(1, len(program.lines) + 1):
+        s, r = program.states[line], program.states[line - 1]
+        busy[line] |= (s.absolute, s.inch, s.offset) != (r.absolute, r.inch, r.offset)
+    return np.cumsum(busy)
+
+
+def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) -> bool:
+    line = int(lines[b])
+    if not movable[line - 1] or (b + 1 < len(lines) and lines[b + 1] == line):
+        return False
+    return set(axis_words(program.lines[line - 1].rstrip("\r\n"))) == {"X", "Y"}
+
+
+def _decimals(program: Program, line: int) -> int:
+    """Decimals a moved point is written with: the line's own, at least the default of its units."""
+    words = axis_words(program.lines[line - 1].rstrip("\r\n"))
+    return max([w.decimals for w in words.values()] + [DEFAULT_DECIMALS[program.states[line - 1].inch]])
+
+
+def rounding_margin(program: Program, lines: np.ndarray) -> float:
+    """The most that writing a point at its line's precision moves it, in mm."""
+    worst = 0.0
+    for line in lines:
+        state = program.states[int(line) - 1]
+        scale = MM_PER_INCH if state.inch else 1.0
+        worst = max(worst, 0.5 * 10.0 ** -_decimals(program, int(line)) * scale * np.sqrt(2.0))
+    return worst
+
+
+def _method_for(category: int, options: RewriteOptions) -> str:
+    if category <= 1:
+        return UNTOUCHED
+    return dispatch(category, options.mapping) if options.method == "dispatch" else options.method
+
+
+def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
+                   read_options: ReaderOptions | None = None,
+                   progress: Callable[[list], list] = lambda items: items) -> Rewrite:
+    """Classify every window of ``program``'s feed runs and smooth the rough ones within the tolerance.
+
+    ``classify`` maps windows (N, window, 2) in mm, relative to their first point, to Table 1
+    categories 1-4.  Raises :class:`GCodeError` when the tolerance is finer than the program's
+    numbers can express.
+    """
+    movable, quiet = movable_lines(program), _quiet_prefix(program)
+    runs = [(xy, lines) for xy, lines in feed_runs(program)]
+    size = options.window
+    records: list[WindowRecord] = []
+    jobs: list[tuple[int, int, int, WindowRecord]] = []  # run, first and last point, window
+    for r, (xy, lines) in enumerate(runs):
+        count = 0 if len(xy) < size else (len(xy) - size) // size + 1
+        if not count:
+            continue
+        starts = np.arange(count) * size
+        local = np.stack([xy[s:s + size] - xy[s] for s in starts])
+        categories = np.asarray(classify(local)).astype(int)
+        for s, category in zip(starts, categories, strict=True):
+            e = s + size - 1
+            record = WindowRecord(r, int(lines[s]), int(lines[e]), int(category), _method_for(int(category), options),
+                                  float(local_curvature(xy[s:e + 1] - xy[s])))
+            records.append(record)
+            if record.method == UNTOUCHED:
+                record.status = "smooth already"
+                continue
+            stretches, reason = _stretches(lines, movable, quiet, program, s, e)
+            if not stretches:
+                record.status = f"kept: {reason}"
+            for a, b in stretches:
+                jobs.append((r, int(a), int(b), record))
+    edits: dict[int, str] = {}
+    for r, a, b, record in progress(jobs):
+        xy, lines = runs[r]
+        margin = rounding_margin(program, lines[a + 1:b])
+        if options.tolerance - margin <= 0:
+            raise GCodeError(program.source, int(lines[a + 1]), f"the tolerance {options.tolerance} mm is finer "
+                             f"than this line's numbers can express ({margin:.2g} mm)")
+        cfg = {**options.smoothing, "tolerance": options.tolerance - margin}
+        result = smooth(xy[a:b + 1], record.method, cfg, "bound", options.seed + a)
+        for k in range(a + 1, b):
+            line = int(lines[k])
+            value = program_coordinates(program, line, result.points[k - a])
+            decimals = _decimals(program, line)
+            words = {"X": format_number(value[0], decimals), "Y": format_number(value[1], decimals)}
+            edits[line] = substitute_xy(program.lines[line - 1], words)
+        record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
+    text = "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
+    return _verify(program, text, runs, records, jobs, edits, options, read_options)
+
+
+def _verify(program: Program, text: str, runs, records, jobs, edits, options, read_options) -> Rewrite:
+    """Re-read the output: every point a kept line reaches is where it was, the moved points are
+    taken from the re-read program, and every stretch is measured both ways against the original."""
+    reread = read_text(text, program.source, read_options)
+    moved_points = np.isin(program.lines_of_points, np.fromiter(edits, int, len(edits)))
+    if reread.points.shape != program.points.shape or not np.array_equal(reread.points[~moved_points],
+                                                                         program.points[~moved_points]):
+        raise GCodeError(program.source, 0, "internal check failed: the rewrite moved a point it does not own")
+    point_of_line = np.full(len(program.lines) + 1, -1)
+    point_of_line[program.lines_of_points] = np.arange(len(program.lines_of_points))
+    new_runs = []
+    for xy, lines in runs:
+        new = xy.copy()
+        changed = np.isin(lines, np.fromiter(edits, int, len(edits)))
+        new[changed] = reread.points[point_of_line[lines[changed]], :2]
+        new_runs.append(new)
+    worst: dict[int, float] = {}
+    for r, a, b, record in jobs:
+        deviation = float(hausdorff(runs[r][0][a:b + 1], new_runs[r][a:b + 1]))
+        if deviation > options.tolerance + 1e-9:
+            raise GCodeError(program.source, int(runs[r][1][a + 1]), f"internal check failed: a smoothed stretch "
+                             f"lies {deviation:.6f} mm from the original, over {options.tolerance} mm")
+        worst[id(record)] = max(worst.get(id(record), 0.0), deviation)
+    counters: dict[int, int] = {}
+    for record in records:
+        record.deviation_mm = worst.get(id(record), 0.0)
+        k = counters.get(record.run, 0)
+        counters[record.run] = k + 1
+        window = new_runs[record.run][k * options.window:(k + 1) * options.window]
+        record.curvature_after = float(local_curvature(window - window[0]))
+    return Rewrite(text, records, [xy for xy, _ in runs], new_runs, sorted(edits))

@@ -1,0 +1,118 @@
+"""The report of ``toolpath smooth``: per window and per program, as JSON or as an HTML page that
+draws the path before and after with the rough windows marked."""
+
+from __future__ import annotations
+
+import html
+import io
+import json
+from collections import Counter
+from dataclasses import asdict
+from pathlib import Path
+
+from toolpath.labels.windows import CATEGORY_NAMES
+
+
+def summary(args, program, result, times: tuple, machine: dict) -> dict:
+    """Everything a machinist checks before running the new program."""
+    before, after, why = times
+    windows = result.windows
+    statuses = Counter("kept" if w.status.startswith("kept") else w.status for w in windows)
+    return {
+        "input": str(args.input), "output": str(args.input if args.in_place else args.output),
+        "tolerance_mm": args.tolerance, "classifier": args.classifier, "method": args.method, "seed": args.seed,
+        "lines": len(program.lines), "lines_changed": len(result.changed_lines),
+        "windows": {"total": len(windows), "smoothed": statuses.get("smoothed", 0),
+                    "smooth_already": statuses.get("smooth already", 0), "kept": statuses.get("kept", 0),
+                    "per_category": {f"{c} {CATEGORY_NAMES[c - 1]}": sum(w.category == c for w in windows)
+                                     for c in (1, 2, 3, 4)},
+                    "kept_reasons": dict(Counter(w.status[len("kept: "):] for w in windows
+                                                 if w.status.startswith("kept")))},
+        "largest_deviation_mm": max((w.deviation_mm for w in windows), default=0.0),
+        "machining_time_s": {"before": before, "after": after,
+                             "saved_pct": None if not before or after is None else 100.0 * (1 - after / before),
+                             "not_planned_because": why,
+                             "machine": machine, "note": "feed planner (seed 002) under the default machine limits, "
+                                                         "feed moves only; rapids are not timed"},
+        "window_rows": [asdict(w) for w in windows],
+    }
+
+
+def write_report(path: Path, report: dict, result) -> None:
+    if path.suffix.lower() == ".html":
+        path.write_text(_html(report, result), encoding="utf-8")
+    else:
+        path.write_text(json.dumps(report, indent=2, default=_plain) + "\n", encoding="utf-8")
+
+
+def _plain(value):
+    """numpy scalars as Python numbers (anything else is a bug worth its TypeError)."""
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} in a smooth report")
+
+
+def write_plot(path: Path, result) -> None:
+    """The path before and after, rough windows marked, as PNG or SVG (by the suffix)."""
+    fig = _figure(result, result.windows)
+    fig.savefig(path, bbox_inches="tight", dpi=150)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def _figure_svg(result, windows) -> str:
+    import matplotlib.pyplot as plt
+
+    fig = _figure(result, windows)
+    out = io.StringIO()
+    fig.savefig(out, format="svg", bbox_inches="tight")
+    plt.close(fig)
+    return out.getvalue()
+
+
+def _figure(result, windows):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(9, 7))
+    for k, xy in enumerate(result.runs_before):
+        ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=1.6, label="before" if k == 0 else None)
+    for k, xy in enumerate(result.runs_after):
+        ax.plot(xy[:, 0], xy[:, 1], color="tab:blue", lw=0.7, label="after" if k == 0 else None)
+    size, seen = 50, Counter()
+    for w in windows:
+        index = seen[w.run]
+        seen[w.run] += 1
+        if w.category >= 2:
+            xy = result.runs_before[w.run][index * size:(index + 1) * size]
+            ax.plot(xy[:, 0], xy[:, 1], color=("tab:orange", "tab:red", "purple")[w.category - 2], lw=2.5,
+                    alpha=0.35)
+    ax.set_aspect("equal")
+    ax.set_xlabel("X (mm)")
+    ax.set_ylabel("Y (mm)")
+    ax.legend(loc="best")
+    ax.set_title("feed moves before (grey) and after (blue); rough windows: orange 2, red 3, purple 4")
+    return fig
+
+
+def _html(report: dict, result) -> str:
+    e = html.escape
+    head = {k: v for k, v in report.items() if k not in ("window_rows", "windows", "machining_time_s")}
+    t = report["machining_time_s"]
+    rows = "".join(
+        f"<tr><td>{w['first_line']}-{w['last_line']}</td><td>{w['category']}</td><td>{e(w['method'])}</td>"
+        f"<td>{w['curvature_before']:.3f}</td><td>{w['curvature_after']:.3f}</td><td>{w['deviation_mm']:.4f}</td>"
+        f"<td>{w['lines_changed']}</td><td>{e(w['status'])}</td></tr>" for w in report["window_rows"])
+    facts = "".join(f"<tr><th>{e(str(k))}</th><td>{e(str(v))}</td></tr>" for k, v in
+                    {**head, **report["windows"], "time before (s)": t["before"], "time after (s)": t["after"],
+                     "time saved (%)": t["saved_pct"]}.items())
+    return (f"<!doctype html><html><head><meta charset='utf-8'><title>toolpath smooth: {e(report['input'])}</title>"
+            "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
+            "padding:2px 6px;text-align:left}</style></head><body>"
+            f"<h1>toolpath smooth: {e(report['input'])}</h1><table>{facts}</table>"
+            f"{_figure_svg(result, result.windows)}<h2>Windows</h2><table><tr><th>lines</th><th>category</th>"
+            "<th>method</th><th>LocalCurvature before</th><th>after</th><th>two-sided deviation (mm)</th>"
+            f"<th>lines changed</th><th>status</th></tr>{rows}</table></body></html>\n")
