@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 export DVC_NO_ANALYTICS := 1
 
-.PHONY: install repro readme test test-fast bench params lint clean-venv
+.PHONY: install repro readme test test-fast bench smooth-example params lint clean-venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -54,6 +54,15 @@ test-fast: install
 bench: install
 	$(PY) -m toolpath.bench
 	$(PY) -m toolpath.stages.benchmark
+
+## `toolpath smooth` on one real program of ../shared/gcode-corpus: the README's example (reports/smooth/).
+SMOOTH_EXAMPLE ?= ../shared/gcode-corpus/tinyg_girl_supercam.gcode
+smooth-example: install
+	mkdir -p reports/smooth
+	$(VENV)/bin/toolpath smooth $(SMOOTH_EXAMPLE) -o reports/smooth/$(notdir $(SMOOTH_EXAMPLE)) --force \
+		--report reports/smooth/report.json --plot reports/smooth/before_after.png
+	$(VENV)/bin/toolpath smooth $(SMOOTH_EXAMPLE) -o reports/smooth/$(notdir $(SMOOTH_EXAMPLE)) --force \
+		--report reports/smooth/report.html
 
 params: install
 	$(PY) -m toolpath.config

@@ -3,7 +3,7 @@
 import pytest
 import torch
 
-from conftest import easy_split
+from conftest import REPO, easy_split
 from toolpath.models import MCRL
 from toolpath.training import qat
 from toolpath.training.bench import MCRL_GROUPS, branch_profile, timed
@@ -25,6 +25,7 @@ def test_qat_keeps_accuracy_saves_int8_and_reloads_identically(trained_mlp, tmp_
     assert size > 0
     qat.save(result.model, Xt[:2], tmp_path / "again" / "mlp.pt2")  # a second export of the same model
     assert (tmp_path / "again" / "mlp.pt2").read_bytes() == (tmp_path / "mlp.pt2").read_bytes()
+    assert str(REPO) not in (tmp_path / "mlp.pt2").read_bytes().decode("latin-1")  # no checkout's paths inside
     reloaded = qat.load(tmp_path / "mlp.pt2")
     assert torch.equal(predict_logits(reloaded, Xt), predict_logits(result.model, Xt))
     tensors = qat.tensor_bytes(result.model)

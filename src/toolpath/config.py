@@ -47,11 +47,56 @@ def compose_config(root: Path, overrides: Sequence[str] = ()) -> DictConfig:
 
 
 def load(path: str | Path = PARAMS_FILE) -> DictConfig:
-    """The composed parameters; a clear error when ``params.yaml`` is missing."""
+    """The composed parameters, checked against ``conf/`` (:mod:`toolpath.schema`) the first time a
+    given ``params.yaml`` is read; one clear line when it is missing, unreadable or holds a bad value."""
+    from toolpath.schema import ConfigError
+
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path} not found: run `python -m toolpath.config` (or `make repro`) first")
-    return OmegaConf.load(path)
+    try:
+        cfg = OmegaConf.load(path)
+    except Exception as exc:  # noqa: BLE001 - YAML and OmegaConf errors alike: one line naming the file
+        raise ConfigError(f"{path}: not a readable configuration ({_one_line(exc)})") from None
+    _check_once(path, cfg)
+    return cfg
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())[:400]
+
+
+def reference(root: Path) -> dict:
+    """``root/conf`` composed with no override: the keys and types every configuration must keep."""
+    return OmegaConf.to_container(compose_config(root), resolve=True)
+
+
+def validate(cfg: DictConfig | Mapping, root: Path, source: str = PARAMS_FILE) -> None:
+    """Check a composed configuration against ``root/conf`` (raises :class:`toolpath.schema.ConfigError`)."""
+    from toolpath.schema import check
+
+    plain = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else cfg
+    check(plain, reference(root), source)
+
+
+def _check_once(path: Path, cfg: DictConfig) -> None:
+    """Validate ``params.yaml`` unless this exact file (with this ``conf/``) was checked before: the
+    first stage of a run pays for the composition, the others read a stamp in ``.dvc/tmp``."""
+    import hashlib
+
+    root = path.resolve().parent
+    conf, stamp_dir = root / CONF_DIR, root / ".dvc" / "tmp"
+    if not conf.is_dir():  # a params.yaml outside a checkout (tests' scratch folders): nothing to compare with
+        return
+    digest = hashlib.sha256(path.read_bytes())
+    for file in sorted(conf.rglob("*.yaml")):
+        digest.update(file.relative_to(conf).as_posix().encode() + b"\0" + file.read_bytes())
+    stamp = stamp_dir / "params-checked"
+    if stamp.is_file() and stamp.read_text() == digest.hexdigest():
+        return
+    validate(cfg, root, str(path))
+    if stamp_dir.is_dir():
+        stamp.write_text(digest.hexdigest())
 
 
 def flat(node: Any, prefix: str = "") -> dict[str, Any]:
@@ -68,7 +113,22 @@ def flat(node: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Compose, check, then write ``params.yaml``; a bad override or value is one line and exit code 1,
+    and ``params.yaml`` is left as it was."""
+    from toolpath.schema import ConfigError
+
     overrides = sys.argv[1:] if argv is None else argv
+    root = Path.cwd()
+    try:
+        cfg = compose_config(root, overrides)
+    except Exception as exc:  # noqa: BLE001 - Hydra's override / missing-config errors: one line, not 59
+        print(f"toolpath.config: {_one_line(exc)}", file=sys.stderr)
+        return 1
+    try:
+        validate(cfg, root, "the composed configuration")
+    except ConfigError as exc:
+        print(f"toolpath.config: {exc}", file=sys.stderr)
+        return 1
     print(f"wrote {compose(overrides)}")
     return 0
 

@@ -90,12 +90,14 @@ def _common_training(cfg: DictConfig) -> dict[str, Any]:
 
 def qat_training(cfg: DictConfig, shape: str, model: str):
     """QAT's fine-tuning settings: the model's own training settings (so a shared or tuned learning
-    rate carries over) at ``qat.lr_scale`` times the learning rate, for ``qat.epochs``, its own seed.
+    rate carries over) at ``qat.lr_scale`` times the learning rate, for ``qat.epochs`` (or the model's
+    ``qat.per_model.<model>.epochs``), its own seed.
     QAT trains without early stopping or auxiliary losses (:func:`toolpath.training.qat.train_qat`)."""
     from toolpath.training.loop import TrainSettings
 
     _, settings = training(cfg, shape, model)
-    settings.update(lr=settings["lr"] * cfg.qat.lr_scale, epochs=cfg.qat.epochs,
+    own = plain((cfg.qat.get("per_model") or {}).get(model) or {})
+    settings.update(lr=settings["lr"] * cfg.qat.lr_scale, epochs=own.get("epochs", cfg.qat.epochs),
                     seed=config.seed_for(cfg.seed, "qat", shape, model))
     return TrainSettings(**settings)
 

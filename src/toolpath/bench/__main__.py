@@ -1,4 +1,4 @@
-"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize|runtimes] [--threads N]
+"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
@@ -6,7 +6,9 @@ fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/
 NACOA on one rough 50-point window at the paper's population settings (N = 1000, M0 = 10,
 M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Writes
 ``reports/bench/runtimes.json``: every model FP32 and INT8 in torch, ONNX Runtime and OpenVINO side by
-side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models).  Prints the tables.
+side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models).  Writes ``reports/bench/gcode.json``:
+reading a G01-dense program and ``toolpath smooth`` end to end, beside gcodeparser and pygcode
+(:mod:`toolpath.bench.gcode`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -99,11 +101,16 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize", "runtimes"), help="run one benchmark (default: all)")
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode"),
+                        help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
     args = parser.parse_args(argv)
+    if args.only in (None, "gcode"):
+        _gcode()
+        if args.only == "gcode":
+            return 0
     if args.only in (None, "optimize"):
         # one core, as the target says: numpy's elementwise work is single-threaded; pin BLAS anyway
         with _single_thread():
@@ -159,6 +166,22 @@ def _runtimes(threads: int, repeats: int) -> int:
             print(f"{name}: {variant} could not run: {reason}")
     print(f"wrote {OUT / 'runtimes.json'}")
     return 0
+
+
+def _gcode() -> None:
+    from toolpath.bench.gcode import measure
+
+    result = measure()
+    write_json(result, OUT / "gcode.json")
+    table = Table(title=f"reading a {result['file']['lines']:,}-line G01 program; toolpath smooth end to end")
+    for column in ("what", "does", "lines / s", "peak RSS MB"):
+        table.add_column(column, justify="right")
+    rows = [*result["readers"].items(), *((f"toolpath smooth --method {m}", r) for m, r in result["smooth"].items())]
+    for name, row in rows:
+        table.add_row(name, row.get("does", ""), f"{row['lines_per_s']:,.0f}" if row.get("lines_per_s") else
+                      row.get("error", "-"), f"{row['peak_rss_mb']:.0f}" if "peak_rss_mb" in row else "-")
+    Console().print(table)
+    print(f"wrote {OUT / 'gcode.json'}")
 
 
 @contextlib.contextmanager

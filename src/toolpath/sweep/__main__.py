@@ -96,6 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         if base.sweep.model in base.models and not any(o.startswith(choice) for o in args.overrides):
             base_overrides.append(f"{choice}{base.sweep.model}")
             base = compose(root, base_overrides)
+        from toolpath.config import validate
+
+        validate(base, root, "the sweep's configuration")  # a bad base override stops before any trial
         spec = spec_from(base, root, base_overrides)
         windows = Path(str(base.paths.windows)) / f"{spec.shape}.npz"
         if not (root / windows).is_file():
@@ -112,9 +115,12 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except SystemExit as exc:  # toolpath.schema.ConfigError: one line naming the key
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     except Exception as exc:  # Hydra's config errors name the override or file at fault
         if type(exc).__module__.startswith(("hydra", "omegaconf")):
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2
         raise
     best, default = summary["best"], summary["default"]

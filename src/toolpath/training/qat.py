@@ -140,12 +140,14 @@ def save(model: torch.fx.GraphModule, example: torch.Tensor, path: Path) -> int:
     example); returns the file size in bytes."""
     path.parent.mkdir(parents=True, exist_ok=True)
     program = export(model, example)
-    # the provenance metadata holds Python object ids (graph_id), which differ run to run; without
-    # it the archive (and its content-derived serialization id) is the same bytes from the same seed
+    # the provenance metadata holds Python object ids (graph_id) and the stack traces absolute source
+    # paths, which differ run to run and checkout to checkout; without them the archive (and its
+    # content-derived serialization id) is the same bytes from the same seed, wherever it runs
     for graph_module in program.graph_module.modules():
         if isinstance(graph_module, torch.fx.GraphModule):
             for node in graph_module.graph.nodes:
                 node.meta.pop("from_node", None)
+                node.meta.pop("stack_trace", None)
     torch.export.save(program, str(path))
     return os.path.getsize(path)
 

@@ -1,0 +1,78 @@
+"""Bad configuration values are refused in one line before any stage runs (toolpath.schema)."""
+
+import shutil
+
+import pytest
+from omegaconf import OmegaConf
+
+from conftest import REPO
+from toolpath import config
+from toolpath.schema import ConfigError
+
+
+@pytest.fixture
+def checkout(tmp_path, monkeypatch):
+    """conf/ and params.yaml of the repository in a scratch folder (with DVC's tmp folder for the stamp)."""
+    shutil.copytree(REPO / "conf", tmp_path / "conf")
+    shutil.copy(REPO / "params.yaml", tmp_path / "params.yaml")
+    (tmp_path / ".dvc" / "tmp").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.mark.parametrize("override, message", [
+    ("train.gear.epochs=-1", "train.gear.epochs = -1: must be a whole number >= 1"),
+    ("train.per_model.rnn.epochs=0", "train.per_model.rnn.epochs = 0: must be a whole number >= 1"),
+    ("label.window=0", "label.window = 0: must be a whole number >= 10"),
+    ("label.window=4", "label.window = 4: must be a whole number >= 10"),
+    ("optimize.tolerance=-0.1", "optimize.tolerance = -0.1: must be a number > 0"),
+    ("optimize.tolerance=nan", "optimize.tolerance = nan: must be a number > 0"),
+    ("seed=abc", "seed = 'abc': must be a whole number >= 0"),
+    ("gcode.read.chord_tolerance=0", "gcode.read.chord_tolerance = 0: must be a number > 0"),
+    ("train.common.workers=0", "train.common.workers = 0: must be a whole number >= 1"),
+    ("train.common.restore_best=maybe", "train.common.restore_best = 'maybe': must be true or false"),
+    ("qat.freeze_last=3", "qat.freeze_last = 3: must be below qat.epochs (3)"),
+    ("label.split.test=0.6", "the fractions must sum to 1"),
+    ("label.bounds=[3.5,1.9,7.6]", "label.bounds = [3.5, 1.9, 7.6]: must be three increasing positive numbers"),
+    ("shapes=[gear,star]", "shapes: 'star' has no generate.star section; the configured shapes are gear, pentagram"),
+    ("+label.windw=50", "label.windw: unknown key; label has window, stride, bounds, split, workers"),
+    ("+foo=1", "foo: unknown key; the top level has"),
+    ("foo=1", "Could not override 'foo'"),
+    ("+experiment=smok", "Could not find 'experiment/smok'"),
+    ("train.gear.epochs=", "train.gear.epochs = '': must be a whole number >= 1"),
+])
+def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, override, message):
+    before = (checkout / "params.yaml").read_bytes()
+    assert config.main([override]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and "Traceback" not in err
+    assert (checkout / "params.yaml").read_bytes() == before
+
+
+def test_unknown_experiment_lists_the_valid_ones(checkout, capsys):
+    assert config.main(["+experiment=smok"]) == 1
+    err = capsys.readouterr().err
+    assert "paper" in err and "smoke" in err
+
+
+@pytest.mark.parametrize("profile", [[], ["+experiment=smoke"], ["+experiment=paper"]])
+def test_every_profile_passes(checkout, profile):
+    assert config.main(profile) == 0
+
+
+def test_a_stage_refuses_a_bad_params_yaml_before_any_work(checkout):
+    params = OmegaConf.load(checkout / "params.yaml")
+    params.train.gear.epochs = -1
+    OmegaConf.save(params, checkout / "params.yaml")
+    with pytest.raises(ConfigError, match=r"params.yaml: train.gear.epochs = -1: must be a whole number >= 1"):
+        config.load(checkout / "params.yaml")
+    (checkout / "params.yaml").write_text("train: [unclosed\n")
+    with pytest.raises(ConfigError, match="params.yaml: not a readable configuration"):
+        config.load(checkout / "params.yaml")
+
+
+def test_a_checked_params_yaml_is_not_checked_again(checkout, monkeypatch):
+    config.load(checkout / "params.yaml")
+    assert (checkout / ".dvc/tmp/params-checked").is_file()
+    monkeypatch.setattr(config, "validate", lambda *a, **k: pytest.fail("checked twice"))
+    config.load(checkout / "params.yaml")
