@@ -185,6 +185,9 @@ def test_cli_writes_the_program_and_a_json_report(rough_file, tmp_path):
     assert data["machining_time_s"]["before"] > 0 and data["machining_time_s"]["after"] > 0
     assert sum(data["windows"]["per_category"].values()) == data["windows"]["total"] == len(data["window_rows"])
     assert rough_file.read_text() == noisy_program()  # the input is untouched
+    umask = os.umask(0)
+    os.umask(umask)
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # a plain new file, not mkstemp's private one
     html = tmp_path / "r.html"
     assert _run(rough_file, "-o", tmp_path / "out2.nc", "--report", html, "--method", "mean").returncode == 0
     assert "<svg" in html.read_text()

@@ -191,8 +191,10 @@ def _atomic_write(path: Path, data: bytes) -> None:
     try:
         with os.fdopen(handle, "wb") as fh:
             fh.write(data)
-        if path.exists():
-            os.chmod(temporary, path.stat().st_mode & 0o7777)
+        # mkstemp makes the file private (0600); give it the mode a plain new file would have
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~umask)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
