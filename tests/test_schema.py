@@ -40,6 +40,7 @@ def checkout(tmp_path, monkeypatch):
     ("foo=1", "Could not override 'foo'"),
     ("+experiment=smok", "Could not find 'experiment/smok'"),
     ("train.gear.epochs=", "train.gear.epochs = '': must be a whole number >= 1"),
+    ("shapes=gear", "shapes = 'gear': must be a list"),
 ])
 def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, override, message):
     before = (checkout / "params.yaml").read_bytes()
@@ -47,6 +48,14 @@ def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, overrid
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
     assert (checkout / "params.yaml").read_bytes() == before
+
+
+def test_a_section_replaced_by_a_value_is_one_line_not_a_traceback():
+    from toolpath.schema import problems
+
+    reference = {"label": {"window": 50, "bounds": [1.9, 3.5, 7.6]}, "qat": {"epochs": 3}, "shapes": ["gear"]}
+    found = list(problems({"label": 5, "qat": "x", "shapes": ["gear"]}, reference))
+    assert found[:2] == ["label = 5: must be a section with window, bounds", "qat = 'x': must be a section with epochs"]
 
 
 def test_unknown_experiment_lists_the_valid_ones(checkout, capsys):

@@ -205,6 +205,8 @@ def test_cli_in_place_keeps_a_backup(rough_file):
 
 @pytest.mark.parametrize("args, message", [
     (["missing.nc", "-o", "out.nc"], "no such file"),
+    (["/dev/zero", "-o", "out.nc"], "/dev/zero: not a regular file"),
+    ([".", "-o", "out.nc"], ".: not a regular file"),
     (["{rough}", "-o", "{rough}"], "that is the input"),
     (["{rough}"], "-o OUT"),
     (["{rough}", "-o", "out.nc", "--tolerance", "-1"], "positive"),

@@ -118,7 +118,7 @@ def _node(tree: Any, path: str) -> Any:
 
 
 def _type_problem(value: Any, reference: Any) -> str | None:
-    if reference is None or value is None and reference is None:
+    if reference is None:
         return None
     if isinstance(reference, bool):
         return None if isinstance(value, bool) else "must be true or false"
@@ -163,8 +163,14 @@ def problems(cfg: Mapping, reference: Mapping) -> Iterator[str]:
     yield from _relations(cfg)
 
 
+def _section(cfg: Mapping, key: str) -> Mapping:
+    """A section, or {} when it is missing or not a mapping (the key-by-key check reports that)."""
+    value = cfg.get(key)
+    return value if isinstance(value, Mapping) else {}
+
+
 def _relations(cfg: Mapping) -> Iterator[str]:
-    label = cfg.get("label", {})
+    label = _section(cfg, "label")
     bounds = label.get("bounds")
     if isinstance(bounds, list) and (len(bounds) != 3 or not all(isinstance(b, int | float) for b in bounds)
                                      or not 0 < bounds[0] < bounds[1] < bounds[2]):
@@ -173,21 +179,22 @@ def _relations(cfg: Mapping) -> Iterator[str]:
     if isinstance(split, Mapping) and all(isinstance(v, int | float) for v in split.values()) and \
             abs(sum(split.values()) - 1.0) > 1e-9:
         yield f"label.split = {dict(split)!r}: the fractions must sum to 1"
-    qat = cfg.get("qat", {})
+    qat = _section(cfg, "qat")
     if isinstance(qat.get("epochs"), int) and isinstance(qat.get("freeze_last"), int) and \
             not qat["freeze_last"] < qat["epochs"]:
         yield (f"qat.freeze_last = {qat['freeze_last']}: must be below qat.epochs ({qat['epochs']}): the observers "
                "must see data before they freeze")
-    for shape in cfg.get("shapes") or []:
+    shapes = cfg.get("shapes")
+    for shape in shapes if isinstance(shapes, list) else []:
         for section in ("generate", "train"):
-            if shape not in (cfg.get(section) or {}):
-                known = [k for k in (cfg.get("generate") or {}) if isinstance(cfg["generate"][k], Mapping)
-                         and "programs" in cfg["generate"][k]]
+            if shape not in _section(cfg, section):
+                generate = _section(cfg, "generate")
+                known = [k for k, v in generate.items() if isinstance(v, Mapping) and "programs" in v]
                 yield (f"shapes: {shape!r} has no {section}.{shape} section; the configured shapes are "
                        f"{', '.join(known)}")
                 break
     window = label.get("window")
-    for name, model in (cfg.get("models") or {}).items():
+    for name, model in _section(cfg, "models").items():
         if isinstance(model, Mapping) and "window" in model and model["window"] != window:
             yield f"models.{name}.window = {model['window']!r}: must equal label.window ({window})"
 

@@ -69,8 +69,10 @@ def parser() -> argparse.ArgumentParser:
 
 def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     """Where the program goes, and where the input's backup goes (``--in-place`` only)."""
-    if not args.input.is_file():
+    if not args.input.exists():
         raise UsageError(f"{args.input}: no such file")
+    if not args.input.is_file():  # a folder, /dev/zero, a pipe: nothing with an end to read and back up
+        raise UsageError(f"{args.input}: not a regular file")
     if args.report is not None and args.report.suffix.lower() not in (".json", ".html"):
         raise UsageError(f"{args.report}: a report is .json or .html")
     if args.plot is not None and args.plot.suffix.lower() not in (".png", ".svg"):
