@@ -41,7 +41,7 @@ def test_every_target_in_every_profile_instantiates_so_no_key_is_unused(tmp_path
     A model's ``schedule`` (a tuned model) is training settings: its keys must be training settings."""
     from hydra.utils import instantiate
 
-    from toolpath.models.registry import split_schedule
+    from toolpath.models.registry import schedule_for_shape, split_schedule
     from toolpath.training.loop import TrainSettings
 
     overrides = [f"+experiment={experiment}"] if experiment else []
@@ -52,7 +52,8 @@ def test_every_target_in_every_profile_instantiates_so_no_key_is_unused(tmp_path
     for path, node in found.items():
         if path.startswith("models."):
             node, schedule = split_schedule(node)
-            TrainSettings(**schedule)  # an unknown key fails here
+            for shape in cfg.shapes:
+                TrainSettings(**schedule_for_shape(schedule, shape))  # an unknown key fails here
         try:
             instantiate(node, _convert_="all")
         except Exception as exc:  # noqa: BLE001 - the message names the node
@@ -227,6 +228,11 @@ def test_training_settings_precedence_shape_then_model_then_shared_lr_then_commo
     assert training(shared, "gear", "rnn")[1]["lr"] == 0.0042
     tuned = OmegaConf.merge(cfg, {"models": {"rnn": {"schedule": {"lr": 0.5, "clip_grad_norm": 9.0}}}})
     assert training(tuned, "gear", "rnn")[1]["lr"] == 0.5 and training(tuned, "gear", "rnn")[1]["clip_grad_norm"] == 9.0
+    # a schedule's per_shape keys win on their shape only
+    per_shape = OmegaConf.merge(tuned, {"models": {"rnn": {"schedule": {"per_shape": {"gear": {"epochs": 7}}}}}})
+    assert training(per_shape, "gear", "rnn")[1]["epochs"] == 7 and training(per_shape, "gear", "rnn")[1]["lr"] == 0.5
+    assert training(per_shape, "pentagram", "rnn")[1]["epochs"] == training(tuned, "pentagram", "rnn")[1]["epochs"]
+    assert "per_shape" not in training(per_shape, "gear", "rnn")[1]
     seeds = [training(cfg, "gear", "mlp", r)[1] for r in range(3)]
     assert len({s["seed"] for s in seeds}) == 3 and seeds[0]["seed"] == mlp["seed"]
     assert all({k: v for k, v in s.items() if k != "seed"} == {k: v for k, v in mlp.items() if k != "seed"}

@@ -41,6 +41,8 @@ def checkout(tmp_path, monkeypatch):
     ("+experiment=smok", "Could not find 'experiment/smok'"),
     ("train.gear.epochs=", "train.gear.epochs = '': must be a whole number >= 1"),
     ("shapes=gear", "shapes = 'gear': must be a list"),
+    ("models.mcrl.schedule.per_shape.gear.epochs=0", "models.mcrl.schedule.per_shape.gear.epochs = 0: must be a whole"),
+    ("+models.mcrl.schedule.per_shape.star.epochs=3", "models.mcrl.schedule.per_shape.star: no such shape"),
 ])
 def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, override, message):
     before = (checkout / "params.yaml").read_bytes()

@@ -62,6 +62,8 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "gcode.read.chord_tolerance": POSITIVE, "gcode.read.arc_radius_tolerance": _real(ge=0),
     "gcode.write.decimals": _int(0, 9), "gcode.write.feed": POSITIVE, "gcode.write.plunge_feed": POSITIVE,
     "train.replicates": _int(1), "train.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
+    "models.*.schedule.epochs": _int(1), "models.*.schedule.per_shape.*.epochs": _int(1),
+    "models.*.schedule.lr": POSITIVE, "models.*.schedule.per_shape.*.lr": POSITIVE,
     "generate.*.programs": _int(4),
     "train.*.batch_size": _int(1), "train.*.lr": _real(gt=0, nullable=True), "train.per_model.*.lr": _real(gt=0),
     "train.*.decay_rate": _real(gt=0, le=1), "train.*.decay_steps": _int(1), "train.common.workers": _int(1),
@@ -197,6 +199,12 @@ def _relations(cfg: Mapping) -> Iterator[str]:
     for name, model in _section(cfg, "models").items():
         if isinstance(model, Mapping) and "window" in model and model["window"] != window:
             yield f"models.{name}.window = {model['window']!r}: must equal label.window ({window})"
+        schedule = model.get("schedule") if isinstance(model, Mapping) else None
+        per_shape = schedule.get("per_shape") if isinstance(schedule, Mapping) else None
+        for shape in per_shape if isinstance(per_shape, Mapping) else []:
+            if shape not in _section(cfg, "train"):
+                yield (f"models.{name}.schedule.per_shape.{shape}: no such shape; the configured shapes are "
+                       f"{', '.join(str(s) for s in shapes or [])}")
 
 
 def check(cfg: Mapping, reference: Mapping, source: str = "params.yaml") -> None:

@@ -60,14 +60,15 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     keys for that model;
     ``train.common.lr``, when set, replaces every shape's learning rate; a ``schedule`` inside the
     model config (a tuned model) overrides all of these and the ``train.common`` keys, being the most
-    specific.
+    specific, and its ``per_shape.<shape>`` keys override the rest of the schedule on that shape.
     The seed derives from the global seed, the shape, the model and (past the first) the replicate,
     so a sweep trial trains what the stage's replicate 0 does.
     """
-    from toolpath.models.registry import split_schedule
+    from toolpath.models.registry import schedule_for_shape, split_schedule
 
     common = cfg.train.common
     network, schedule = split_schedule(plain(cfg.models[model]))
+    schedule = schedule_for_shape(schedule, shape)
     shared = {"lr": common.lr} if common.get("lr") is not None else {}
     own = plain((cfg.train.get("per_model") or {}).get(model) or {})
     settings = {**plain(cfg.train[shape]), **own, **shared, **_common_training(cfg), **schedule,

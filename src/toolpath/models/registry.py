@@ -17,6 +17,14 @@ def split_schedule(config: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str,
     return network, dict(network.pop("schedule", None) or {})
 
 
+def schedule_for_shape(schedule: Mapping[str, Any], shape: str) -> dict[str, Any]:
+    """A model's schedule on one shape: its keys, with those of its ``per_shape.<shape>`` (e.g. a shape
+    whose training is still improving at the common epoch count) over them."""
+    own = dict(schedule)
+    per_shape = own.pop("per_shape", None) or {}
+    return {**own, **dict(per_shape.get(shape) or {})}
+
+
 def _plain(value: Any) -> Any:
     """Config containers (OmegaConf's included) as plain dicts and lists, as the constructors expect."""
     if isinstance(value, Mapping):
