@@ -8,6 +8,7 @@ any file failed.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from toolpath.gcode.errors import GCodeError
@@ -27,10 +28,20 @@ def summarise(path: str, options: ReaderOptions) -> str:
             f"units {program.units}, bbox mm {box}")
 
 
+def _positive_mm(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a length > 0 in mm")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m toolpath.gcode", description=__doc__.split("\n")[0])
     parser.add_argument("files", nargs="+", help="G-code files (.nc, .ngc, .gcode, .tap ...)")
-    parser.add_argument("--chord-tolerance", type=float, default=ReaderOptions.chord_tolerance,
+    parser.add_argument("--chord-tolerance", type=_positive_mm, default=ReaderOptions.chord_tolerance,
                         help="max sagitta (mm) of the chords that replace arcs")
     args = parser.parse_args(argv)
     options = ReaderOptions(chord_tolerance=args.chord_tolerance)

@@ -7,6 +7,9 @@ import math
 import numpy as np
 
 TWO_PI = 2.0 * math.pi
+# The most chords one arc block may become: a full circle of 1 m radius at 0.001 mm is 11,000; past
+# a million (24 MB of points) the block is an error, not a request to exhaust memory.
+MAX_ARC_POINTS = 1_000_000
 
 
 def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool,
@@ -45,6 +48,11 @@ def discretise_arc(start: np.ndarray, end: np.ndarray, centre: np.ndarray, clock
     linearly with the angle (helix).  ``start == end`` in XY is a full circle.  ``turns`` > 1 adds
     whole revolutions (LinuxCNC's P word).
 
+    Raises
+    ------
+    ValueError
+        When the arc needs more than :data:`MAX_ARC_POINTS` chords.
+
     Returns
     -------
     ndarray of shape (k, 3)
@@ -58,9 +66,13 @@ def discretise_arc(start: np.ndarray, end: np.ndarray, centre: np.ndarray, clock
         sweep = TWO_PI  # same start and end: a full circle
     sweep += TWO_PI * (max(turns, 1) - 1)
     r_max = max(r0, r1)
-    # a circle no larger than the tolerance still gets a few points
-    step = math.pi / 2 if r_max <= chord_tolerance else 2.0 * math.acos(1.0 - chord_tolerance / r_max)
+    # a circle no larger than the tolerance still gets a few points; 2 acos(1 - x) written as
+    # 4 asin(sqrt(x / 2)), which keeps its precision when the radius dwarfs the tolerance
+    step = math.pi / 2 if r_max <= chord_tolerance else 4.0 * math.asin(math.sqrt(chord_tolerance / r_max / 2.0))
     count = max(1, math.ceil(sweep / step))
+    if count > MAX_ARC_POINTS:
+        raise ValueError(f"the arc (radius {r_max:.6g} mm, {sweep / TWO_PI:.6g} turns) needs {count:,} chords "
+                         f"within {chord_tolerance:g} mm, more than the limit of {MAX_ARC_POINTS:,}")
     t = np.arange(1, count + 1) / count
     angle = a0 + (-sweep if clockwise else sweep) * t
     radius = r0 + (r1 - r0) * t

@@ -101,12 +101,6 @@ def movable_lines(program: Program) -> np.ndarray:
     return ok
 
 
-def format_number(value: float, decimals: int) -> str:
-    """Fixed point as CAM posts write it, never ``-0.000``."""
-    text = f"{value:.{decimals}f}"
-    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
-
-
 def substitute_xy(line: str, values: dict[str, str]) -> str:
     """``line`` with the numbers of its X/Y words replaced by ``values`` (letter -> number text).
 

@@ -24,6 +24,7 @@ _FUNCTIONS = {
     "ROUND": lambda v: float(math.floor(v + 0.5)) if v >= 0 else -float(math.floor(-v + 0.5)), "LN": math.log,
     "SIN": lambda v: math.sin(math.radians(v)), "SQRT": math.sqrt, "TAN": lambda v: math.tan(math.radians(v)),
 }
+_MAX_DEPTH = 32  # nested brackets, functions and unary signs (each costs Python stack; LinuxCNC's lines are short)
 # binary operators by precedence level (lowest first), as the manual's table
 _LEVELS = (("AND", "OR", "XOR"), ("EQ", "NE", "GT", "GE", "LT", "LE"), ("+", "-"), ("*", "/", "MOD"), ("**",))
 
@@ -58,6 +59,7 @@ class Scanner:
 
     def __init__(self, body: str, params: Parameters, pos: int = 0) -> None:
         self.s, self.params, self.pos = body, params, pos
+        self.depth = 0
 
     def _skip(self) -> None:
         while self.pos < len(self.s) and self.s[self.pos] in " \t":
@@ -65,14 +67,27 @@ class Scanner:
 
     def _peek_word(self, words: tuple[str, ...]) -> str | None:
         self._skip()
-        rest = self.s[self.pos:].upper()
+        rest = self.s[self.pos:self.pos + 3].upper()  # the longest operator; no copy of the whole line
         for w in sorted(words, key=len, reverse=True):
             if rest.startswith(w) and not (w == "*" and rest.startswith("**")):
                 return w
         return None
 
     def value(self) -> float:
-        """A real value: a number, a parameter, a bracketed expression or a function, with an optional sign."""
+        """A real value: a number, a parameter, a bracketed expression or a function, with an optional sign.
+        A value that is not finite is an error (it would reach the tool path as a NaN)."""
+        self.depth += 1
+        try:
+            if self.depth > _MAX_DEPTH:
+                raise ExpressionError(f"an expression is nested deeper than {_MAX_DEPTH} levels")
+            result = self._value()
+        finally:
+            self.depth -= 1
+        if not math.isfinite(result):
+            raise ExpressionError(f"a value overflows ({result})")
+        return result
+
+    def _value(self) -> float:
         self._skip()
         if self.pos >= len(self.s):
             raise ExpressionError("a value is missing at the end of the line")
@@ -177,15 +192,16 @@ def _apply(op: str, a: float, b: float) -> float:
         if op == "**":
             return float(a**b) if not (a < 0 and b != int(b)) else _undefined(op, a, b)
         if op == "/":
-            return a / b
+            return a / b if math.isfinite(a / b) else _undefined(op, a, b)
         if op == "MOD":  # as LinuxCNC: fmod, then made non-negative
             r = math.fmod(a, b)
             return r + abs(b) if r < 0 else r
     except (ZeroDivisionError, OverflowError, ValueError):
         return _undefined(op, a, b)
-    return {"*": a * b, "+": a + b, "-": a - b, "EQ": float(a == b), "NE": float(a != b), "GT": float(a > b),
+    result = {"*": a * b, "+": a + b, "-": a - b, "EQ": float(a == b), "NE": float(a != b), "GT": float(a > b),
             "GE": float(a >= b), "LT": float(a < b), "LE": float(a <= b), "AND": float(bool(a) and bool(b)),
             "OR": float(bool(a) or bool(b)), "XOR": float(bool(a) != bool(b))}[op]
+    return result if math.isfinite(result) else _undefined(op, a, b)
 
 
 def _undefined(op: str, a: float, b: float) -> float:

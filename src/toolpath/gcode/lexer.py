@@ -18,6 +18,9 @@ from toolpath.gcode.expressions import ExpressionError, Parameters, Scanner
 _NUMBER = re.compile(r"\s*([+-]?)\s*(\d+\.?\d*|\.\d+)")
 _KNOWN_LETTERS = set("GMNFSTHDXYZIJKRPQL")
 _UNSUPPORTED_AXES = set("ABCUVWE")
+# The largest magnitude a word may have: 1e9 (a kilometre in micrometres, a million in any feed or speed);
+# past it a number is a typo or an attack, and 1e400 would be infinity.
+MAX_WORD_VALUE = 1.0e9
 _FUNCTION_CALL = re.compile(r"(ABS|ACOS|ASIN|ATAN|COS|EXISTS|EXP|FIX|FUP|ROUND|LN|SIN|SQRT|TAN)\s*\[", re.IGNORECASE)
 
 
@@ -111,7 +114,7 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
                 value = scanner.value()
             except ExpressionError as exc:
                 raise GCodeError(source, lineno, f"word {upper}: {exc}") from None
-            words.append(Word(upper, body[i + 1 : scanner.pos].strip(), value))
+            words.append(_checked(Word(upper, body[i + 1 : scanner.pos].strip(), value), source, lineno))
             i = scanner.pos
             continue
         if match is None:
@@ -122,9 +125,17 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
                 raise GCodeError(source, lineno, "'[ ]' expressions are not supported")
             raise GCodeError(source, lineno, f"word {upper} has no number")
         text = match.group(1) + match.group(2)
-        words.append(Word(upper, text, float(text)))
+        words.append(_checked(Word(upper, text, float(text)), source, lineno))
         i = match.end()
     return Block(words=tuple(words), block_delete=deleted, assignments=tuple(assignments))
+
+
+def _checked(word: Word, source: str, lineno: int) -> Word:
+    """The word, or a :class:`GCodeError` when its value is past :data:`MAX_WORD_VALUE` (or not finite)."""
+    if not abs(word.value) <= MAX_WORD_VALUE:
+        raise GCodeError(source, lineno, f"word {word.letter}{word.text[:20]}{'...' if len(word.text) > 20 else ''} "
+                                         f"is out of range (the largest magnitude read is {MAX_WORD_VALUE:g})")
+    return word
 
 
 def _starts_value(body: str, pos: int) -> bool:
@@ -142,7 +153,12 @@ def _assignment(body: str, pos: int, params: Parameters, out: list, source: str,
         if not body.startswith("=", scanner.pos):
             raise ExpressionError("a parameter outside a word must be set with '='")
         scanner.pos += 1
-        out.append((key, scanner.value()))
+        value = scanner.value()
+        if not abs(value) <= MAX_WORD_VALUE:
+            name = f"#<{key}>" if isinstance(key, str) else f"#{key}"
+            raise ExpressionError(f"{name} = {value:g} is out of range (the largest magnitude read is "
+                                  f"{MAX_WORD_VALUE:g})")
+        out.append((key, value))
     except ExpressionError as exc:
         raise GCodeError(source, lineno, str(exc)) from None
     return scanner.pos

@@ -4,10 +4,18 @@ Supported: LinuxCNC's numbered and named parameters and ``[ ]`` expressions
 (:mod:`toolpath.gcode.expressions`), G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices, P turns),
 G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
 and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
-block delete ``/``, CRLF and tabs; G28/G30 returns to their stored positions (G28.1/G30.1 store
-them).  Work offsets (G54-G59), tool length offsets (G43/G49) and
+block delete ``/``, tabs, LF, CRLF and lone-CR line ends and a UTF-8 BOM; G28/G30 returns to their
+stored positions (G28.1/G30.1 store them).  Work offsets (G54-G59), tool length offsets (G43/G49) and
 path-control modes (G61/G64) are accepted and do not move the XY path.  After M2 or M30 the
-program has ended, as on a controller: later lines are kept in ``Program.lines`` but not run.
+program has ended, as on a controller: later lines are kept in ``Program.lines`` but not read; so
+after a ``%`` that closes the program (any ``%`` but a leading one).
+
+Limits, properties of the program rather than of the machine: a line of at most 4096 characters
+(:data:`toolpath.gcode.text.MAX_LINE_LENGTH`), word values of magnitude at most 1e9
+(:data:`toolpath.gcode.lexer.MAX_WORD_VALUE`), expressions nested at most 32 deep, an arc of at most
+a million chords (:data:`toolpath.gcode.arcs.MAX_ARC_POINTS`; the count follows from its length and
+the chord tolerance), a program of at most 20 million points (:data:`MAX_POINTS`).  M words are
+whole numbers 0-199, G words have one decimal at most, an arc's P is a whole number >= 1.
 
 Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, O-words,
 NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G53
@@ -16,6 +24,7 @@ and every malformed word.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
@@ -26,8 +35,12 @@ from toolpath.gcode.arcs import centre_from_radius, discretise_arc
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
+from toolpath.gcode.text import MAX_LINE_LENGTH, read_bounded, split_lines
 
 MM_PER_INCH = 25.4
+# The most points one program may expand to (480 MB of coordinates): a program past it is refused by
+# name, not read until the machine runs out of memory.
+MAX_POINTS = 20_000_000
 
 
 class Motion(IntEnum):
@@ -53,6 +66,14 @@ class ReaderOptions:
     arc_radius_tolerance: float = 0.01
     initial_motion: int = 0
     block_delete: bool = False
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.chord_tolerance, int | float) and 0 < self.chord_tolerance < math.inf):
+            raise ValueError(f"chord_tolerance must be a number > 0 (mm), not {self.chord_tolerance!r}")
+        if not (isinstance(self.arc_radius_tolerance, int | float) and 0 <= self.arc_radius_tolerance < math.inf):
+            raise ValueError(f"arc_radius_tolerance must be a number >= 0 (mm), not {self.arc_radius_tolerance!r}")
+        if self.initial_motion not in (0, 1):
+            raise ValueError(f"initial_motion must be 0 (rapid) or 1 (feed), not {self.initial_motion!r}")
 
 
 @dataclass
@@ -102,15 +123,6 @@ _CANNED = set(range(73, 90)) - {80}
 _UNSUPPORTED_M = {98: "subprogram calls (M98) are not supported", 99: "M99 (subprogram return) is not supported"}
 
 
-def split_lines(text: str) -> list[str]:
-    """Split text into lines that keep their own endings (LF or CRLF), nothing else touched."""
-    parts = text.split("\n")
-    lines = [p + "\n" for p in parts[:-1]]
-    if parts[-1]:
-        lines.append(parts[-1])
-    return lines
-
-
 class _Interpreter:
     """Modal state machine over the blocks of one program."""
 
@@ -126,10 +138,14 @@ class _Interpreter:
         self.offset = np.zeros(3)
         self.feed: float | None = None
         self.ended = False
+        self.started = False  # a line with words (or a '%') has been seen
         self.params = Parameters()
+        # per emitted block: its points (k, 3), and k, kind and line for np.repeat at the end
         self.points: list[np.ndarray] = []
+        self.counts: list[int] = []
         self.kinds: list[int] = []
         self.point_lines: list[int] = []
+        self.total = 0
 
     def state(self) -> LineState:
         return LineState(self.motion, self.absolute, self.inch, tuple(self.pos), tuple(self.offset), self.feed)
@@ -143,6 +159,8 @@ class _Interpreter:
             if w.letter != "G":
                 continue
             code = round(w.value, 1)
+            if abs(w.value - code) > 1e-6 or w.value < 0:
+                raise self.fail(lineno, f"G{w.text} is not a G-code (one decimal at most)")
             major = int(code)
             if code == major and major in _MOTION:
                 if motion is not None:
@@ -161,7 +179,13 @@ class _Interpreter:
         return motion, others
 
     def run_block(self, block: Block, lineno: int) -> None:
-        if block.percent or self.ended or (block.block_delete and self.opt.block_delete):
+        if block.percent:
+            # a leading '%' opens the program, any later one ends it (LinuxCNC, Fanuc)
+            self.ended = self.ended or self.started
+            self.started = True
+            return
+        self.started = self.started or bool(block.words or block.assignments)
+        if self.ended or (block.block_delete and self.opt.block_delete):
             return
         for key, value in block.assignments:  # after every value on the line was read with the old ones
             self.params.set(key, value)
@@ -175,6 +199,8 @@ class _Interpreter:
         motion, others = self._g_codes(words, lineno)
         for w in words:
             if w.letter == "M":
+                if w.value != int(w.value) or not 0 <= w.value <= 199:
+                    raise self.fail(lineno, f"M{w.text} is not an M-code (a whole number 0-199)")
                 code = int(w.value)
                 if code in _UNSUPPORTED_M:
                     raise self.fail(lineno, _UNSUPPORTED_M[code])
@@ -290,14 +316,24 @@ class _Interpreter:
                                         f"(radius {r0:.6g} at the start, {r1:.6g} at the end)")
             if r0 == 0.0:
                 raise self.fail(lineno, "arc centre coincides with its start point")
-        turns = int(values.get("P", 1))
-        pts = discretise_arc(self.pos, target, centre, clockwise, self.opt.chord_tolerance, turns)
+        turns = values.get("P", 1.0)
+        if turns != int(turns) or turns < 1:
+            raise self.fail(lineno, f"P{turns:g} on an arc must be a whole number of turns >= 1")
+        try:
+            pts = discretise_arc(self.pos, target, centre, clockwise, self.opt.chord_tolerance, int(turns))
+        except ValueError as exc:
+            raise self.fail(lineno, str(exc)) from None
         self._emit(pts, Motion.ARC, lineno)
 
     def _emit(self, pts: np.ndarray, kind: Motion, lineno: int) -> None:
-        self.points.extend(pts)
-        self.kinds.extend([int(kind)] * len(pts))
-        self.point_lines.extend([lineno] * len(pts))
+        self.total += len(pts)
+        if self.total > MAX_POINTS:
+            raise self.fail(lineno, f"the program expands to more than {MAX_POINTS:,} points (arcs at a chord "
+                                    f"tolerance of {self.opt.chord_tolerance:g} mm included)")
+        self.points.append(pts)
+        self.counts.append(len(pts))
+        self.kinds.append(int(kind))
+        self.point_lines.append(lineno)
 
 
 def read_text(text: str, source: str = "<string>", options: ReaderOptions | None = None) -> Program:
@@ -312,17 +348,22 @@ def read_text(text: str, source: str = "<string>", options: ReaderOptions | None
     lines = split_lines(text)
     states = [interp.state()]
     for lineno, raw in enumerate(lines, start=1):
-        block = tokenize(raw.rstrip("\r\n"), source, lineno, interp.params)
-        interp.run_block(block, lineno)
+        if not interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
+            body = raw.rstrip("\r\n")
+            if len(body) > MAX_LINE_LENGTH:
+                raise GCodeError(source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
+            block = tokenize(body[1:] if lineno == 1 and body.startswith("\ufeff") else body,  # a UTF-8 BOM
+                             source, lineno, interp.params)
+            interp.run_block(block, lineno)
         states.append(interp.state())
-    pts = np.array(interp.points, dtype=float).reshape(-1, 3)
+    pts = np.concatenate(interp.points).astype(float) if interp.points else np.zeros((0, 3))
     units = {frozenset(): "mm (no unit word)", frozenset({"mm"}): "mm", frozenset({"inch"}): "inch"}
     return Program(
         source=source,
         lines=lines,
         points=pts,
-        kinds=np.array(interp.kinds, dtype=np.int8),
-        lines_of_points=np.array(interp.point_lines, dtype=np.int32),
+        kinds=np.repeat(np.array(interp.kinds, dtype=np.int8), interp.counts),
+        lines_of_points=np.repeat(np.array(interp.point_lines, dtype=np.int32), interp.counts),
         units=units.get(frozenset(interp.units_seen), "mixed inch/mm"),
         states=states,
     )
@@ -338,7 +379,7 @@ def read_file(path: str | Path, options: ReaderOptions | None = None) -> Program
     """
     path = Path(path)
     try:
-        data = path.read_bytes()
+        data = read_bounded(path)
     except OSError as exc:
-        raise GCodeError(str(path), 0, f"cannot read file: {exc.strerror}") from None
+        raise GCodeError(str(path), 0, f"cannot read file: {exc.strerror or exc}") from None
     return read_text(data.decode("utf-8", errors="surrogateescape"), str(path), options)

@@ -7,6 +7,7 @@ M/S/T/H/D words, unit or mode changes, rapids.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -42,7 +43,10 @@ class ProgramSpec:
 
 
 def fmt(value: float, decimals: int) -> str:
-    """Fixed-point number as CAM posts write it, never ``-0.000``."""
+    """Fixed-point number as CAM posts write it, never ``-0.000``; a NaN or infinity is refused
+    (``Xnan`` is not G-code: our reader and every controller refuse it)."""
+    if not math.isfinite(value):
+        raise ValueError(f"cannot write the non-finite number {value} as G-code")
     text = f"{value:.{decimals}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
@@ -152,6 +156,9 @@ def replace_motion(program: Program, replacements: Sequence[tuple[int, int, np.n
         _check_next_line(program, last)
         before, after = program.states[first - 1], program.states[last]
         pts = np.asarray(pts, dtype=float)
+        if not np.isfinite(pts).all():
+            raise GCodeError(program.source, first, f"the replacement for lines {first}..{last} holds a non-finite "
+                                                    "point; nothing was written")
         if pts.shape[1] == 2:
             pts = np.column_stack([pts, np.full(len(pts), after.position[2])])
         scale = MM_PER_INCH if before.inch else 1.0
@@ -167,7 +174,8 @@ def replace_motion(program: Program, replacements: Sequence[tuple[int, int, np.n
         lines = g1_moves(rounded, d) if before.absolute else _incremental_moves(rounded, d)
         if has_feed and after.feed is not None and lines:
             lines[0] += f" F{fmt(after.feed / scale, max(d - 2, 0))}"
-        ending = "\r\n" if program.lines[first - 1].endswith("\r\n") else "\n"
+        original = program.lines[first - 1]
+        ending = original[len(original.rstrip("\r\n")):] or "\n"  # CRLF, LF or a lone CR, as the line had
         out[first - 1] = "".join(line + ending for line in lines)
         for k in range(first, last):
             out[k] = ""

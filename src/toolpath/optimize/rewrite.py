@@ -21,9 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from toolpath.gcode.edit import axis_words, format_number, movable_lines, program_coordinates, substitute_xy
+from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_xy
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
+from toolpath.gcode.writer import fmt
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
@@ -193,7 +194,7 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             line = int(lines[k])
             value = program_coordinates(program, line, result.points[k - a])
             decimals = _decimals(program, line)
-            words = {"X": format_number(value[0], decimals), "Y": format_number(value[1], decimals)}
+            words = {"X": fmt(value[0], decimals), "Y": fmt(value[1], decimals)}
             edits[line] = substitute_xy(program.lines[line - 1], words)
         record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
     text = "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
