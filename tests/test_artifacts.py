@@ -106,3 +106,78 @@ def test_json_and_rows(tmp_path):
         artifacts.read_json(tmp_path / "bad.json", "corner")
     artifacts.write_rows([{"x": 1 / 3, "y": "a"}], ("x", "y"), tmp_path / "r.csv")
     assert artifacts.read_rows(tmp_path / "r.csv", "corner") == [{"x": "0.333333", "y": "a"}]
+
+
+def test_a_checkpoint_whose_weights_do_not_fit_its_network_is_one_line(tmp_path):
+    import torch
+
+    from toolpath.training.classifier import TorchClassifier, to_checkpoint
+
+    from toolpath.models.registry import build
+
+    clf = TorchClassifier(network={"_target_": "toolpath.models.MLP"}, settings={})
+    clf.network_, clf.history_ = build(clf.network), []
+    checkpoint = to_checkpoint(clf)
+    checkpoint["state_dict"] = {k: torch.zeros(3) for k in checkpoint["state_dict"]}  # wrong shapes
+    artifacts.save_checkpoint(checkpoint, tmp_path / "mlp.pt")
+    with pytest.raises(ArtifactError, match=r"mlp.pt: malformed model file \(RuntimeError.*; run `dvc repro train@gear`"):
+        artifacts.load_classifier(tmp_path / "mlp.pt", "train@gear")
+    artifacts.save_checkpoint({"network": {"_target_": "no.such.Model"}, "kind": "torch", "settings": {},
+                               "state_dict": {}}, tmp_path / "odd.pt")
+    with pytest.raises(ArtifactError, match=r"odd.pt: malformed model file"):
+        artifacts.load_classifier(tmp_path / "odd.pt", "train@gear")
+
+
+@pytest.mark.parametrize("content", [b"garbage", b"", b"PK\x03\x04 truncated"])
+def test_a_corrupt_int8_program_names_the_file_and_the_stage(tmp_path, content):
+    path = tmp_path / "mlp.pt2"
+    path.write_bytes(content)
+    with pytest.raises(ArtifactError, match=r"mlp.pt2: not a readable INT8 model file .*; run `dvc repro qat@gear`"):
+        artifacts.load_int8(path, "qat@gear")
+
+
+def test_a_corrupt_table_names_the_file_and_the_stage(tmp_path):
+    (tmp_path / "rows.csv").write_bytes(b"a,b\n\xff\xfe,1\n")
+    with pytest.raises(ArtifactError, match=r"rows.csv: not a readable CSV table .*; run `dvc repro optimize@gear`"):
+        artifacts.read_rows(tmp_path / "rows.csv", "optimize@gear")
+    (tmp_path / "ok.csv").write_text("a\n1\n")
+    with pytest.raises(ArtifactError, match="missing column b"):
+        artifacts.read_rows(tmp_path / "ok.csv", "optimize@gear", required=("a", "b"))
+
+
+def test_errors_cross_a_process_pool_whole():
+    """A stage's pool worker that raises one of these reaches the stage as the same one line."""
+    import pickle
+
+    from toolpath.gcode import GCodeError
+
+    error = pickle.loads(pickle.dumps(ArtifactError("a.pt", "not a readable model file", "train@gear")))
+    assert isinstance(error, ArtifactError) and str(error) == "a.pt: not a readable model file; run `dvc repro train@gear`"
+    line = pickle.loads(pickle.dumps(GCodeError("a.nc", 3, "bad word")))
+    assert (line.source, line.line, line.message, str(line)) == ("a.nc", 3, "bad word", "a.nc:3: bad word")
+
+
+def test_a_corrupt_tracking_store_is_one_line_naming_it(tmp_path, monkeypatch):
+    from toolpath import tracking
+
+    (tmp_path / "mlflow.db").write_bytes(bytes(range(256)) * 20)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.setenv("DVC_ROOT", str(tmp_path))
+    with pytest.raises(tracking.TrackingStoreError, match=rf"{tmp_path}/mlflow.db: not a usable MLflow store .*mv "):
+        tracking.client()
+
+
+def test_a_report_section_with_a_corrupt_input_names_the_file_and_the_stage(tmp_path):
+    from toolpath.reports import builder
+
+    bad = tmp_path / "m.json"
+    bad.write_text("{")
+
+    def section() -> str:
+        builder.require([bad], "train@gear")
+        return str(builder.read_json(bad))
+
+    report = builder.Report.__new__(builder.Report)
+    report.categories = section  # the first section of the plan reads the corrupt file
+    with pytest.raises(SystemExit, match=r"m.json: not valid JSON .*; run `dvc repro train@gear`"):
+        report.sections()

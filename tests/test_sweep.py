@@ -142,6 +142,23 @@ def test_one_worker_sweeps_repeat_exactly_for_a_seed(sweep_dir):
     assert results[0] == results[1]
 
 
+def test_separate_launches_on_one_study_sample_with_their_own_seeds(sweep_dir):
+    """Two launches one after the other on one study (as two terminals would): the second claims the
+    next worker indices, so its sampler seed differs and it does not repeat the first's trials."""
+    from toolpath.sweep.study import claim_workers, open_study, spec_from
+
+    base = ["+sweep=mcrl", *SWEEP, "sweep.workers=1", "model@models.mcrl=mcrl"]
+    spec = spec_from(compose(sweep_dir, base), sweep_dir, base)
+    study = open_study(spec)
+    assert [claim_workers(spec, study, 2), claim_workers(spec, study, 1), claim_workers(spec, study, 3)] == [0, 2, 3]
+    assert study.user_attrs["workers_claimed"] == 6
+    for _ in range(2):  # two launches, one trial each past the default one
+        assert sweep_main(["--trials", "2", *SWEEP, "sweep.workers=1"]) == 0
+    trials = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db").trials
+    sampled = [tuple(sorted(t.params.items())) for t in trials if not t.user_attrs.get("default_config")]
+    assert len(sampled) == 3 and len(set(sampled)) == 3
+
+
 def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):
     assert sweep_main(["--config", "nope"]) == 2
     assert "conf/sweep/nope.yaml not found" in capsys.readouterr().err
@@ -178,6 +195,8 @@ def test_two_workers_share_one_study_in_postgresql(sweep_dir):
     storage.engine.dispose()
     assert sorted(t.number for t in trials) == list(range(4))  # none lost, none twice
     assert all(t.state.name == "COMPLETE" for t in trials)
+    sampled = [tuple(sorted(t.params.items())) for t in trials if not t.user_attrs.get("default_config")]
+    assert len(set(sampled)) == len(sampled) == 3  # each launch sampled with its own seed
     assert sum(bool(t.user_attrs.get("default_config")) for t in trials) == 1
     _, children = _trial_runs("mcrl-gear", env["MLFLOW_TRACKING_URI"])
     assert sorted(int(r.data.tags["optuna_trial"]) for r in children) == list(range(4))

@@ -27,7 +27,8 @@ import numpy as np
 from toolpath.labels.split import Split
 
 __all__ = ["CATEGORIES", "ArtifactError", "Layout", "SmoothedSet", "Split", "WindowSet", "category_index",
-           "load_arrays", "load_checkpoint", "load_smoothed", "load_windows", "read_json", "read_rows",
+           "load_arrays", "load_checkpoint", "load_classifier", "load_int8", "load_smoothed", "load_windows",
+           "read_json", "read_rows",
            "save_checkpoint", "save_smoothed", "save_windows", "write_json", "write_rows"]
 
 
@@ -44,6 +45,10 @@ class ArtifactError(SystemExit):
 
     def __init__(self, path: Path, problem: str, producer: str) -> None:
         super().__init__(f"{path}: {problem}; run `dvc repro {producer}`")
+        self.path, self.problem, self.producer = path, problem, producer
+
+    def __reduce__(self) -> tuple:  # raised in a pool worker, it reaches the stage whole
+        return (ArtifactError, (self.path, self.problem, self.producer))
 
 
 @dataclass(frozen=True)
@@ -287,6 +292,36 @@ def load_checkpoint(path: Path, producer: str = "train") -> dict:
     return checkpoint
 
 
+def load_classifier(path: Path, producer: str = "train") -> Any:
+    """The fitted classifier of a checkpoint; weights that do not fit the network they name (a file
+    from another version, a damaged one) stop with one line instead of a traceback."""
+    from toolpath.training.classifier import from_checkpoint
+
+    checkpoint = load_checkpoint(path, producer)
+    try:
+        return from_checkpoint(checkpoint)
+    except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        raise ArtifactError(path, f"malformed model file ({type(exc).__name__}: {reason})", producer) from None
+
+
+def load_int8(path: Path, producer: str = "qat") -> Any:
+    """An INT8 ``.pt2`` program (:func:`toolpath.training.qat.load`), in eval mode; any failure to
+    load it is the file's problem, said in one line."""
+    from toolpath.training import qat
+
+    if not path.is_file():
+        raise ArtifactError(path, "INT8 model file not found", producer)
+    try:
+        model = qat.load(path)
+    except Exception as exc:  # noqa: BLE001 - torch.export raises many kinds for a damaged archive
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        raise ArtifactError(path, f"not a readable INT8 model file ({type(exc).__name__}: {reason})",
+                            producer) from None
+    model.eval()  # the exported-graph eval() switches dropout in place and returns None
+    return model
+
+
 # ---- JSON and CSV --------------------------------------------------------------------------------
 def _finite(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
@@ -324,8 +359,17 @@ def write_rows(rows: Iterable[Mapping], columns: Iterable[str], path: Path) -> N
             writer.writerow([f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in columns])
 
 
-def read_rows(path: Path, producer: str) -> list[dict[str, str]]:
+def read_rows(path: Path, producer: str, required: Iterable[str] = ()) -> list[dict[str, str]]:
+    """The rows of a CSV table; a missing file, undecodable bytes or a missing column is one line."""
     if not path.is_file():
         raise ArtifactError(path, "table not found", producer)
-    with path.open(newline="") as fh:
-        return list(csv.DictReader(fh))
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            rows = list(reader)
+            columns = reader.fieldnames or []
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ArtifactError(path, f"not a readable CSV table ({exc})", producer) from None
+    if missing := [c for c in required if c not in columns]:
+        raise ArtifactError(path, f"malformed table, missing column {', '.join(missing)}", producer)
+    return rows

@@ -61,9 +61,10 @@ def with_retry(action: Callable[[], T], attempts: int = 8) -> T:
 
 
 @contextlib.contextmanager
-def _sqlite_init_lock(uri: str) -> Iterator[None]:
-    """Hold ``<store>.lock`` while MLflow opens a SQLite store: a new store is created by running
-    its migrations, and two processes migrating one file at once corrupt each other's steps."""
+def sqlite_file_lock(uri: str) -> Iterator[None]:
+    """Hold ``<store>.lock`` (an exclusive file lock) for a SQLite URI; other URIs pass through.  MLflow
+    opens its store under it: a new store is created by running its migrations, and two processes
+    migrating one file at once corrupt each other's steps.  The sweep claims worker seeds under it."""
     prefix = "sqlite:///"
     if not uri.startswith(prefix):
         yield
@@ -80,6 +81,28 @@ def _sqlite_init_lock(uri: str) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
+class TrackingStoreError(SystemExit):
+    """The tracking store cannot be opened (a corrupt ``mlflow.db``, an unreachable server): one line."""
+
+
+@contextlib.contextmanager
+def _store_errors(uri: str) -> Iterator[None]:
+    """Turn a store that cannot be opened into one line naming it and what to do."""
+    try:
+        yield
+    except TrackingStoreError:
+        raise
+    except Exception as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        prefix = "sqlite:///"
+        if uri.startswith(prefix):
+            path = uri[len(prefix):].split("?", 1)[0]
+            raise TrackingStoreError(f"{path}: not a usable MLflow store ({reason}); move it aside "
+                                     f"(mv {path} {path}.bad) to start a new one, or set MLFLOW_TRACKING_URI") from None
+        raise TrackingStoreError(f"MLflow store {uri}: cannot be opened ({reason}); check MLFLOW_TRACKING_URI") \
+            from None
+
+
 def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
     """The id of experiment ``name``, created (artefacts under ``mlruns/``) when missing.
 
@@ -89,7 +112,7 @@ def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
         return found.experiment_id if found else \
             client.create_experiment(name, artifact_location=(repo_root() / "mlruns").as_uri())
 
-    with _sqlite_init_lock(str(client.tracking_uri)):
+    with sqlite_file_lock(str(client.tracking_uri)), _store_errors(str(client.tracking_uri)):
         return with_retry(get_or_create)
 
 
@@ -99,8 +122,10 @@ def client(uri: str | None = None) -> Any:
     import mlflow
 
     uri = uri or tracking_uri()
-    with _sqlite_init_lock(uri):
-        return with_retry(lambda: mlflow.MlflowClient(tracking_uri=uri))
+    with sqlite_file_lock(uri), _store_errors(uri):
+        found = with_retry(lambda: mlflow.MlflowClient(tracking_uri=uri))
+        found.search_experiments(max_results=1)  # MlflowClient opens lazily: a corrupt file fails here
+        return found
 
 
 def git_commit(root: Path | None = None) -> str:

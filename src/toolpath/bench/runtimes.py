@@ -76,15 +76,14 @@ def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor
             workdir: Path) -> tuple[dict, dict]:
     """Every (runtime, precision) variant of one model as ``{"<runtime>_<fp32|int8>": callable}``, and the
     ONNX file sizes.  A runtime that cannot load a file is left out with its reason under ``errors``."""
-    from toolpath.training import qat
+    from toolpath import artifacts
 
     variants: dict = {"torch_fp32": fp32.eval()}
     sizes: dict = {"errors": {}}
     sizes["onnx_fp32_bytes"] = export_onnx(fp32, example, workdir / "fp32.onnx")
     files = {"fp32": workdir / "fp32.onnx"}
     if int8_file is not None:
-        int8 = qat.load(int8_file)
-        int8.eval()
+        int8 = artifacts.load_int8(int8_file)
         variants["torch_int8"] = int8
         sizes["onnx_int8_bytes"] = export_onnx(load_int8_program(int8_file), example, workdir / "int8.onnx")
         files["int8"] = workdir / "int8.onnx"
@@ -130,7 +129,6 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     from toolpath import artifacts, config, settings
     from toolpath.artifacts import Split
     from toolpath.training.bench import machine
-    from toolpath.training.classifier import from_checkpoint
 
     cfg = config.load()
     layout = settings.layout(cfg)
@@ -142,7 +140,7 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     torch.set_num_threads(threads)
     out: dict = {"machine": machine(threads), "shape": shape, "batch": batch, "repeats": repeats, "models": {}}
     for name in models:
-        fp32 = from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(shape, name), f"train@{shape}")).network_
+        fp32 = artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_
         int8_file = layout.int8_model(shape, name)
         out["models"][name] = compare(name, fp32, int8_file if int8_file.is_file() else None, test, inputs,
                                       threads, repeats)

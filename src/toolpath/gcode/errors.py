@@ -21,3 +21,6 @@ class GCodeError(ValueError):
         self.line = line
         self.message = message
         super().__init__(f"{source}:{line}: {message}")
+
+    def __reduce__(self) -> tuple:  # crosses process pools whole (the default would call it with one argument)
+        return (GCodeError, (self.source, self.line, self.message))

@@ -16,7 +16,8 @@ from toolpath.artifacts import (
     CATEGORIES,
     Layout,
     Split,
-    load_checkpoint,
+    load_arrays,
+    load_classifier,
     load_smoothed,
     load_windows,
 )
@@ -33,8 +34,8 @@ def read_json(path: Path) -> dict:
 
     try:
         return json.loads(path.read_text(encoding="utf-8"))
-    except ValueError as exc:
-        raise SystemExit(f"{path}: not valid JSON ({exc}); `dvc repro` the stage that writes it") from None
+    except ValueError as exc:  # UnicodeDecodeError included
+        raise Corrupt(path, f"not valid JSON ({exc})") from None
 
 
 class Missing(Exception):
@@ -45,20 +46,38 @@ class Missing(Exception):
         self.paths, self.stage = paths, stage
 
 
+class Corrupt(Exception):
+    """An input file that is there but cannot be read; the section turns it into one line."""
+
+    def __init__(self, path: Path, reason: str) -> None:
+        super().__init__(f"{path}: {reason}")
+        self.path, self.reason = path, reason
+
+
+_required_by: list[str] = [""]  # the stage whose files the section being built asked for last
+
+
 def require(paths: list[Path], stage: str) -> None:
+    _required_by[0] = stage
     absent = [p for p in paths if not p.exists()]
     if absent:
         raise Missing(absent, stage)
 
 
 def read_csv(path: Path) -> list[dict]:
-    with path.open(newline="", encoding="utf-8") as fh:
-        return list(csv.DictReader(fh))
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            return list(csv.DictReader(fh))
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise Corrupt(path, f"not a readable CSV table ({exc})") from None
 
 
 def read_columns(path: Path) -> dict[str, np.ndarray]:
     rows = read_csv(path)
-    return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
+    try:
+        return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
+    except (TypeError, ValueError) as exc:
+        raise Corrupt(path, f"a column is not numeric ({exc})") from None
 
 
 class Report:
@@ -258,8 +277,7 @@ class Report:
         require(list(windows.values()), "feedrate")
         metrics, per_shape = read_json(corner), {s: read_json(p) for s, p in windows.items()}
         cases, methods = list(metrics["cases"]), list(self.cfg.corner.methods)
-        with np.load(profiles) as data:
-            arrays = {k: data[k] for k in data.files}
+        arrays = load_arrays(profiles, [], "corner profiles", "corner")
         rows = read_csv(lay.corner_rows)
         parts = [self.table(corner_report.cases_table(metrics), "table10_corner_cases"),
                  self.table([corner_report.corners_table(rows, case, methods) for case in cases], "table13_corners"),
@@ -295,13 +313,16 @@ class Report:
                 result.append(Section(title, build()))
             except Missing as missing:
                 result.append(Section(title, missing=[str(p) for p in missing.paths], stage=missing.stage))
+            except Corrupt as bad:
+                raise SystemExit(f"{bad.path}: {bad.reason}; run `dvc repro {_required_by[0]}`") from None
+            except (KeyError, TypeError, IndexError, ValueError) as exc:  # a file of the right kind, wrong content
+                raise SystemExit(f"report section {title!r}: an input of `dvc repro {_required_by[0]}` is malformed "
+                                 f"({type(exc).__name__}: {exc})") from None
         return result
 
 
 def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -> tuple[dict, dict]:
     """One seeded random test window per category, and each model's predicted category for it."""
-    from toolpath.training.classifier import from_checkpoint
-
     data = load_windows(windows_path)
     rng = np.random.default_rng(seed)
     drawn = {}
@@ -312,6 +333,6 @@ def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -
     batch = np.stack(list(drawn.values()))
     predictions = {}
     for model, path in models.items():
-        predicted = from_checkpoint(load_checkpoint(path)).predict(batch)
+        predicted = load_classifier(path).predict(batch)
         predictions[model] = {c: int(p) for c, p in zip(drawn, predicted, strict=True)}
     return drawn, predictions

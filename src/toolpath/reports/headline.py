@@ -16,14 +16,14 @@ from toolpath.artifacts import Layout
 PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 
 
-def _load(path: Path) -> dict | None:
+def _load(path: Path, producer: str) -> dict | None:
     """The metrics file, None when absent (a stage not run); a corrupt one stops with its name."""
     if not path.is_file():
         return None
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except ValueError as exc:
-        raise SystemExit(f"{path}: not valid JSON ({exc}); `dvc repro` the stage that writes it") from None
+        raise SystemExit(f"{path}: not valid JSON ({exc}); run `dvc repro {producer}`") from None
 
 
 def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:
@@ -35,7 +35,7 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
     for shape in shapes:
         accuracy = {}
         for model in models:
-            found = _load(layout.train_metrics(shape, model))
+            found = _load(layout.train_metrics(shape, model), f"train@{shape}")
             if found is None:
                 continue
             seeds = found["replicates"]
@@ -53,20 +53,20 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
         learned = {m: a for m, a in accuracy.items() if m != "rule"}
         if learned:
             tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)
-        for model, entry in (_load(layout.qat_metrics(shape)) or {}).items():
+        for model, entry in (_load(layout.qat_metrics(shape), f"qat@{shape}") or {}).items():
             if isinstance(entry, dict) and "accuracy_drop_points" in entry:
                 metrics[f"int8.{shape}.{model}.accuracy_drop_points"] = entry["accuracy_drop_points"]
-        smoothing = ((_load(layout.optimize_summary(shape)) or {}).get("methods", {}).get("bound", {})
-                     .get("plain", {}))
-        timing = ((_load(layout.feedrate_summary(shape)) or {}).get("methods", {}).get("bound", {})
-                  .get("plain", {}))
+        optimized = _load(layout.optimize_summary(shape), f"optimize@{shape}") or {}
+        smoothing = optimized.get("methods", {}).get("bound", {}).get("plain", {})
+        planned = _load(layout.feedrate_summary(shape), f"feedrate@{shape}") or {}
+        timing = planned.get("methods", {}).get("bound", {}).get("plain", {})
         for method in PAPER_SMOOTHERS:
             if method in smoothing:
                 metrics[f"smoothing.{shape}.{method}.mean_reduction_pct"] = smoothing[method]["mean_reduction_pct"]
                 metrics[f"smoothing.{shape}.{method}.max_hausdorff_mm"] = smoothing[method]["max_hausdorff_mm"]
             if method in timing:
                 metrics[f"feedrate.{shape}.{method}.time_saved_pct"] = timing[method]["time_saved_pct"]
-    for case, record in ((_load(layout.corner_metrics) or {}).get("cases", {})).items():
+    for case, record in ((_load(layout.corner_metrics, "corner") or {}).get("cases", {})).items():
         for method, entry in record["methods"].items():
             if entry.get("mean_reduction_pct") is not None:
                 metrics[f"corner.{case}.{method}.mean_reduction_pct"] = entry["mean_reduction_pct"]

@@ -19,9 +19,7 @@ from toolpath import artifacts, config, settings, tracking
 from toolpath.artifacts import Split
 from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import progress
-from toolpath.training import qat
 from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, threads
-from toolpath.training.classifier import from_checkpoint
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -29,16 +27,11 @@ def main(argv: list[str] | None = None) -> None:
     bcfg, layout, shapes = settings.plain(cfg.benchmark), settings.layout(cfg), list(cfg.shapes)
 
     def fp32(shape: str, name: str) -> torch.nn.Module:
-        path = layout.checkpoint(shape, name)
-        return from_checkpoint(artifacts.load_checkpoint(path, f"train@{shape}")).network_.eval()
+        return artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_.eval()
 
     def int8(shape: str, name: str) -> torch.nn.Module | None:
         path = layout.int8_model(shape, name)
-        if not path.is_file():
-            return None
-        model = qat.load(path)
-        model.eval()  # the exported-graph eval() switches dropout in place and returns None
-        return model
+        return artifacts.load_int8(path, f"qat@{shape}") if path.is_file() else None
 
     tests = {s: torch.as_tensor(artifacts.load_windows(layout.windows_file(s), s).part(Split.TEST)[0]) for s in shapes}
     draws = torch.Generator().manual_seed(config.seed_for(cfg.seed, "benchmark"))
@@ -62,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
                 entry["int8_missing"] = f"{int8_path} not found (see {layout.qat_metrics(shapes[0])})"
             result["models"][name] = entry
         rule_file = layout.checkpoint(shapes[0], "rule")
-        rule = from_checkpoint(artifacts.load_checkpoint(rule_file, f"train@{shapes[0]}"))
+        rule = artifacts.load_classifier(rule_file, f"train@{shapes[0]}")
         result["rule"] = bench_rule(rule, shapes, tests, inputs, bcfg)
         if "mcrl" in bcfg["models"]:
             result["mcrl_branch_profile_ms"] = {k: 1e3 * v for k, v in

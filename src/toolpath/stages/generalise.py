@@ -19,7 +19,7 @@ from toolpath.artifacts import Split
 from toolpath.gcode import GCodeError, ReaderOptions, read_file
 from toolpath.labels import label_program
 from toolpath.labels.windows import arc_share
-from toolpath.training.classifier import TorchClassifier, from_checkpoint, to_checkpoint
+from toolpath.training.classifier import TorchClassifier, to_checkpoint
 from toolpath.training.generalise import best_by_validation, corpus_report, cross_shape_matrix
 from toolpath.training.metrics import classification_metrics
 
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> None:
 
         result = {"best_baseline": best, "baseline_val_accuracy": val_acc, "cross_shape": {}}
         for name in (across.model, best):
-            clfs = {s: from_checkpoint(artifacts.load_checkpoint(layout.checkpoint(s, name), f"train@{s}"))
+            clfs = {s: artifacts.load_classifier(layout.checkpoint(s, name), f"train@{s}")
                     for s in cfg.shapes}
             result["cross_shape"][name] = cross_shape_matrix(clfs, tests)
         stack = {split.label: tuple(np.concatenate([d.part(split)[i] for d in data.values()]) for i in (0, 1))

@@ -6,7 +6,8 @@ For each model of ``qat.models``: start from the trained FP32 weights, run QAT t
 (:mod:`toolpath.training.qat`) on the model's training settings (:func:`toolpath.settings.qat_training`),
 convert, save the INT8 ``.pt2``, reload it and check the outputs are identical, and score
 it on the same test programs as the FP32 model with every Table 3 metric.  A model whose route fails
-is recorded with the reason (``status: failed``) and the stage moves on; no file is written for it.
+is recorded with the reason (``status: failed``) and the other models go on; no file is written for
+it, and the stage then exits non-zero (its metrics written), so DVC does not take it as done.
 
 Writes the shape's QAT metrics (deterministic) and timing (:class:`toolpath.artifacts.Layout`).
 """
@@ -33,7 +34,8 @@ def _worker(job: tuple) -> tuple[dict, float, str | None]:
     name, fp32_file, producer, parts, train_settings, freeze_last, out, threads, float_modules = job
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
-    checkpoint = artifacts.load_checkpoint(fp32_file, producer)  # a corrupt file stops the stage
+    artifacts.load_classifier(fp32_file, producer)  # a corrupt file stops the stage, it is no QAT result
+    checkpoint = artifacts.load_checkpoint(fp32_file, producer)
     try:
         entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
                                       float_modules=float_modules)
@@ -111,6 +113,10 @@ def main(argv: list[str] | None = None) -> None:
         artifacts.write_json(report, layout.qat_metrics(args.shape))
         artifacts.write_json(timing, layout.qat_timing(args.shape))
         mlflow.log_dict(report, "qat.json")
+        if failed := [name for name, entry in report.items() if isinstance(entry, dict) and entry["status"] != "ok"]:
+            # the stage could not do its work: DVC must not cache it as done
+            raise SystemExit(f"qat@{args.shape}: {', '.join(failed)} could not be quantised; the reasons are in "
+                             f"{layout.qat_metrics(args.shape)} and {out_dir}/<model>.failed.txt")
 
 
 if __name__ == "__main__":

@@ -45,10 +45,13 @@ def _shares(total: int, workers: int) -> list[int]:
 
 
 def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
-    """Run the shares (one process each when there are several) under a progress bar over the study."""
+    """Run the shares (one process each when there are several) under a progress bar over the study;
+    each process samples with its own seed (:func:`toolpath.sweep.study.claim_workers`)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from toolpath.sweep.study import run_trials
+    from toolpath.sweep.study import claim_workers, run_trials
+
+    first = claim_workers(spec, study, len(shares))
 
     finished = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL)
     start = len(study.get_trials(states=finished))
@@ -61,10 +64,10 @@ def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
                 bar.update(task, advance=1, best=f"best {study.best_value:.4f}"
                            if study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)) else "")
 
-            run_trials(spec, shares[0], worker=0, callbacks=[advance])
+            run_trials(spec, shares[0], worker=first, callbacks=[advance])
         else:
             with ProcessPoolExecutor(len(shares), mp_context=get_context("spawn")) as pool:
-                futures = [pool.submit(run_trials, spec, n, k) for k, n in enumerate(shares)]
+                futures = [pool.submit(run_trials, spec, n, first + k) for k, n in enumerate(shares)]
                 while not all(f.done() for f in futures):
                     done = study.get_trials(states=finished)
                     values = [t.value for t in done if t.value is not None]

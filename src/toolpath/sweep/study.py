@@ -9,9 +9,11 @@ heartbeat stops; Optuna marks it FAILED once the grace period passes, and it is 
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -103,6 +105,41 @@ def open_storage(spec: SweepSpec) -> optuna.storages.RDBStorage:
 
 def _sampler(spec: SweepSpec, worker: int) -> optuna.samplers.TPESampler:
     return optuna.samplers.TPESampler(seed=spec.seed + worker)
+
+
+def claim_workers(spec: SweepSpec, study: optuna.Study, count: int) -> int:
+    """The first of ``count`` worker indices (sampler seed: study seed + index) that no earlier launch
+    on this study used.  The study records how many it has handed out (user attribute
+    ``workers_claimed``), read and raised under the SQLite storage's file lock, so two sweeps launched
+    separately on one study never sample with the same seed.  The first launch gets 0: one launch
+    alone samples as it always did."""
+    with _storage_lock(spec):
+        claimed = int(study.user_attrs.get("workers_claimed", 0))
+        study.set_user_attr("workers_claimed", claimed + count)
+    return claimed
+
+
+@contextlib.contextmanager
+def _storage_lock(spec: SweepSpec) -> Iterator[None]:
+    """An exclusive lock every process on the study's storage respects: the SQLite file's lock file,
+    or a PostgreSQL advisory lock (sessions on other machines wait for it too)."""
+    if not spec.storage.startswith("postgresql"):
+        with tracking.sqlite_file_lock(spec.storage):
+            yield
+        return
+    import sqlalchemy
+
+    engine = sqlalchemy.create_engine(spec.storage, poolclass=sqlalchemy.pool.NullPool)
+    key = int.from_bytes(hashlib.sha256(f"toolpath-sweep:{spec.study}".encode()).digest()[:7], "big")
+    try:
+        with engine.connect() as connection:
+            connection.execute(sqlalchemy.text("SELECT pg_advisory_lock(:key)"), {"key": key})
+            try:
+                yield
+            finally:
+                connection.execute(sqlalchemy.text("SELECT pg_advisory_unlock(:key)"), {"key": key})
+    finally:
+        engine.dispose()
 
 
 def mlflow_client(spec: SweepSpec) -> Any:
