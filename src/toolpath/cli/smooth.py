@@ -115,11 +115,10 @@ def classifier(spec: str):
         except Exception as exc:  # noqa: BLE001 - any failure to load is the file's problem, said in one line
             raise InputError(f"{path}: not a readable INT8 model ({type(exc).__name__})") from None
     else:
-        from toolpath.artifacts import load_checkpoint
-        from toolpath.training.classifier import from_checkpoint
+        from toolpath.artifacts import load_classifier
 
         try:
-            model = from_checkpoint(load_checkpoint(path, "train"))
+            model = load_classifier(path, "train")
         except SystemExit as exc:  # ArtifactError: its message names a pipeline stage, not this command
             raise InputError(f"{path}: not a readable model checkpoint ({str(exc).split(': ', 1)[-1][:120]})") \
                 from None
