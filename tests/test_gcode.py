@@ -166,7 +166,7 @@ def test_program_end_stops_interpretation():
     ("G1 X1 $\n", 1, "unexpected character"),
     ("G1 X1 X2\n", 1, "appears twice"),
     ("G0 X1\nG2 X2 Y0\n", 2, "needs I/J or R"),
-    ("G0 X0\nG2 X10 Y0 I1 J0\n", 2, "off the arc's circle"),
+    ("G0 X0\nG2 X10 Y0 I1 J0\n", 2, "radius to the end of the arc differs"),
     ("G0 X0\nG2 X10 Y0 R1\n", 2, "shorter than half the chord"),
     ("G0 X1\nG3 X1 R1\n", 2, "same point"),
     ("M98 P100\n", 1, "M98"),

@@ -61,6 +61,8 @@ def test_split_lines_keeps_every_ending():
     ("G1 X[1/0]\n", 1, "undefined"),
     ("G1 X[EXP[1000]]\n", 1, "undefined"),
     ("G1 X1 " + "(" + "c" * (MAX_LINE_LENGTH + 1) + ")\n", 1, "longer than"),
+    ("G1 X[1e300*1e300] F100\n", 1, "unexpected 'e300*1e3' in an expression"),  # no exponents in G-code
+    ("G1 X0 Y0 F100\nG2 X1 Y0 I0.5 J0 K1\n", 2, "not of the XY plane"),
 ])
 def test_hostile_text_is_refused_with_its_line(text, line, fragment):
     with pytest.raises(GCodeError) as caught:
@@ -88,7 +90,7 @@ def test_dev_zero_is_refused_not_read_until_memory_runs_out():
 
 
 @pytest.mark.parametrize("options", [{"chord_tolerance": 0}, {"chord_tolerance": -1.0},
-                                     {"chord_tolerance": float("nan")}, {"arc_radius_tolerance": float("inf")},
+                                     {"chord_tolerance": float("nan")}, {"chord_tolerance": float("inf")},
                                      {"initial_motion": 2}])
 def test_reader_options_out_of_range_are_refused(options):
     with pytest.raises(ValueError, match=next(iter(options))):
@@ -160,3 +162,38 @@ def test_arbitrary_bytes_give_a_program_or_a_gcode_error(tmp_path, data):
 def test_arbitrary_gcode_like_text_gives_a_program_or_a_gcode_error(tmp_path, text):
     with contextlib.suppress(UnicodeEncodeError):
         _read_bounded(text.encode("utf-8", "surrogateescape"), tmp_path)
+
+
+# --- centre-format arcs accepted or refused as LinuxCNC (2.8+) does ----------------------------------
+
+@pytest.mark.parametrize("units, r_start, r_end, accepted", [
+    ("G21", 10.0, 10.02, True),      # 0.02 mm <= 2 * 0.01 * sqrt(2) = 0.0283 mm
+    ("G21", 10.0, 10.03, False),     # 0.03 mm > 0.0283 and 0.3 % > 0.1 %
+    ("G21", 100.0, 100.05, True),    # 0.05 mm > 0.0283 but 0.05 % <= 0.1 %
+    ("G21", 5000.0, 5003.0, False),  # 0.06 % but 3 mm > 100 x 0.0283 mm
+    ("G21", 2000.0, 2002.0, True),   # 0.1 % and 2 mm <= 2.83 mm
+    ("G20", 1.0, 1.002, True),       # inch: 0.002 in <= 2 * 0.001 * sqrt(2) = 0.00283 in
+    ("G20", 1.0, 1.003, False),      # 0.003 in > 0.00283 in and 0.3 % > 0.1 %
+    ("G20", 0.00004, 0.00004, False),  # below the radius tolerance 0.00005 in: a zero-radius arc
+])
+def test_centre_arc_radius_tolerances_are_linuxcnc_s(units, r_start, r_end, accepted):
+    text = f"{units} G90\nG0 X{r_start:.6f} Y0\nG3 X0 Y{r_end:.6f} I{-r_start:.6f} J0\n"
+    if accepted:
+        program = read_text(text)
+        end = program.points[-1, :2] / (25.4 if units == "G20" else 1.0)
+        np.testing.assert_allclose(end, [0.0, r_end], atol=1e-9)
+    else:
+        with pytest.raises(GCodeError, match="radius") as caught:
+            read_text(text)
+        assert caught.value.line == 3
+
+
+@pytest.mark.parametrize("half_chord_excess, accepted", [(0.001, True), (0.002, False)])
+def test_r_arc_may_fall_short_of_half_its_chord_by_the_radius_tolerance(half_chord_excess, accepted):
+    """LinuxCNC: refused when half the chord exceeds |R| by more than 0.00127 mm (0.00005 in)."""
+    text = f"G21 G90\nG0 X0 Y0\nG2 X20 Y0 R{10 - half_chord_excess}\n"
+    if accepted:
+        assert abs(read_text(text).points[:, 1]).max() == pytest.approx(10.0, abs=0.01)
+    else:
+        with pytest.raises(GCodeError, match="shorter than half the chord"):
+            read_text(text)

@@ -285,7 +285,9 @@ def load_checkpoint(path: Path, producer: str = "train") -> dict:
     try:
         checkpoint = torch.load(path, weights_only=True)
     except (RuntimeError, EOFError, OSError, ValueError, pickle.UnpicklingError) as exc:
-        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        # torch's first line for a non-checkpoint is a paragraph about weights_only; say what it means
+        reason = "not a torch checkpoint of plain tensors" if "Weights only load failed" in str(exc) else \
+            (str(exc).splitlines() or [type(exc).__name__])[0][:160]
         raise ArtifactError(path, f"not a readable model file ({reason})", producer) from None
     if not isinstance(checkpoint, dict) or "network" not in checkpoint:
         raise ArtifactError(path, "malformed model file, no network config", producer)

@@ -59,7 +59,7 @@ POSITIVE, FRACTION = _real(gt=0), _real(gt=0, lt=1)
 RULES: dict[str, Callable[[Any], str | None]] = {
     "seed": _int(0), "window": _int(10), "stride": _int(1), "workers": _int(1),
     "label.window": _int(10), "label.stride": _int(1), "label.workers": _int(1), "label.split.*": FRACTION,
-    "gcode.read.chord_tolerance": POSITIVE, "gcode.read.arc_radius_tolerance": _real(ge=0),
+    "gcode.read.chord_tolerance": POSITIVE,
     "gcode.write.decimals": _int(0, 9), "gcode.write.feed": POSITIVE, "gcode.write.plunge_feed": POSITIVE,
     "train.replicates": _int(1), "train.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
     "models.*.schedule.epochs": _int(1), "models.*.schedule.per_shape.*.epochs": _int(1),

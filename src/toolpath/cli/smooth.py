@@ -113,7 +113,8 @@ def classifier(spec: str):
         try:
             network = load(path)
         except Exception as exc:  # noqa: BLE001 - any failure to load is the file's problem, said in one line
-            raise InputError(f"{path}: not a readable INT8 model ({type(exc).__name__})") from None
+            reason = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
+            raise InputError(f"{path}: not a readable INT8 model ({reason})") from None
     else:
         from toolpath.artifacts import load_classifier
 

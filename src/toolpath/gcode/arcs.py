@@ -12,6 +12,30 @@ TWO_PI = 2.0 * math.pi
 MAX_ARC_POINTS = 1_000_000
 
 
+# LinuxCNC's interpreter (src/emc/rs274ngc/interp_arc.cc, rs274ngc_interp.hh), in its program's units:
+# a centre-format arc is refused when its end radius differs from its start radius by more than 100x the
+# absolute spiral tolerance, or by more than it and more than 0.1 % of the larger radius; a radius below
+# the radius tolerance is a zero-radius arc; an R arc may fall short of half its chord by that tolerance.
+SPIRAL_ABSOLUTE_TOLERANCE = {"mm": 2 * 0.01 * math.sqrt(2), "inch": 2 * 0.001 * math.sqrt(2)}
+SPIRAL_RELATIVE_TOLERANCE = 0.001
+RADIUS_TOLERANCE = {"mm": 0.00005 * 25.4, "inch": 0.00005}
+
+
+def centre_arc_problem(r_start: float, r_end: float, units: str) -> str | None:
+    """Why LinuxCNC would refuse a centre-format (I/J) arc with these radii (in ``units``, "mm" or
+    "inch", the program's), or None when it runs it (as a spiral from one radius to the other)."""
+    if min(r_start, r_end) < RADIUS_TOLERANCE[units]:
+        return f"zero-radius arc (radius {r_start:.6g} at the start, {r_end:.6g} at the end, {units})"
+    absolute = abs(r_start - r_end)
+    relative = absolute / max(r_start, r_end)
+    limit = SPIRAL_ABSOLUTE_TOLERANCE[units]
+    if absolute > 100.0 * limit or (relative > SPIRAL_RELATIVE_TOLERANCE and absolute > limit):
+        return (f"radius to the end of the arc differs from the radius to its start by {absolute:.6g} {units} "
+                f"(start {r_start:.6g}, end {r_end:.6g}; LinuxCNC allows {limit:.4g} {units}, or "
+                f"{SPIRAL_RELATIVE_TOLERANCE:.1%} of the radius up to {100 * limit:.4g} {units})")
+    return None
+
+
 def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockwise: bool,
                        tolerance: float) -> np.ndarray:
     """Centre of the arc given in R form (RS-274: R < 0 selects the arc longer than 180 degrees).
@@ -19,15 +43,15 @@ def centre_from_radius(start: np.ndarray, end: np.ndarray, radius: float, clockw
     Raises
     ------
     ValueError
-        When start and end coincide (R cannot define a full circle) or lie further apart than
-        the diameter by more than ``tolerance``.
+        When start and end coincide (R cannot define a full circle) or half the chord exceeds the
+        radius by more than ``tolerance`` (LinuxCNC's rule; within it the arc is a half circle).
     """
     chord = end[:2] - start[:2]
     d = float(np.hypot(*chord))
     if d == 0.0:
         raise ValueError("an R arc cannot start and end at the same point (use I/J for a full circle)")
     r = abs(radius)
-    if d > 2.0 * r + tolerance:
+    if d / 2.0 - r > tolerance:
         raise ValueError(f"R arc radius {r:.6g} mm is shorter than half the chord {d / 2:.6g} mm")
     h = math.sqrt(max(r * r - d * d / 4.0, 0.0))
     left = np.array([-chord[1], chord[0]]) / d

@@ -137,8 +137,11 @@ class Scanner:
         self.pos += 1
         result = self._binary(0)
         self._skip()
-        if not self.s.startswith("]", self.pos):
+        if self.pos >= len(self.s):
             raise ExpressionError("an expression '[' is never closed with ']'")
+        if not self.s.startswith("]", self.pos):
+            raise ExpressionError(f"unexpected {self.s[self.pos:self.pos + 8]!r} in an expression "
+                                  "(an operator or ']' should follow a value)")
         self.pos += 1
         return result
 

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from toolpath.gcode.arcs import centre_from_radius, discretise_arc
+from toolpath.gcode.arcs import RADIUS_TOLERANCE, centre_arc_problem, centre_from_radius, discretise_arc
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
@@ -56,22 +56,17 @@ class ReaderOptions:
     """How to read; every field is in ``conf/gcode/``.
 
     chord_tolerance : max sagitta (mm) of the chords that replace an arc.
-    arc_radius_tolerance : how far (mm) an arc's end may lie off its circle before it is an error;
-        within it the radius is blended (CAM output rounds arc end points).
     initial_motion : motion mode before any G word (0 = rapid, as Grbl and TinyG power up).
     block_delete : True honours ``/`` (skips those lines), as with the switch on.
     """
 
     chord_tolerance: float = 0.001
-    arc_radius_tolerance: float = 0.01
     initial_motion: int = 0
     block_delete: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.chord_tolerance, int | float) and 0 < self.chord_tolerance < math.inf):
             raise ValueError(f"chord_tolerance must be a number > 0 (mm), not {self.chord_tolerance!r}")
-        if not (isinstance(self.arc_radius_tolerance, int | float) and 0 <= self.arc_radius_tolerance < math.inf):
-            raise ValueError(f"arc_radius_tolerance must be a number >= 0 (mm), not {self.arc_radius_tolerance!r}")
         if self.initial_motion not in (0, 1):
             raise ValueError(f"initial_motion must be 0 (rapid) or 1 (feed), not {self.initial_motion!r}")
 
@@ -299,23 +294,21 @@ class _Interpreter:
                 raise self.fail(lineno, "an arc takes either R or I/J, not both")
             try:
                 centre = centre_from_radius(self.pos, target, values["R"] * scale, clockwise,
-                                            self.opt.arc_radius_tolerance)
+                                            RADIUS_TOLERANCE["mm"])  # the same length in either unit
             except ValueError as exc:
                 raise self.fail(lineno, str(exc)) from None
         else:
-            if "K" in values and "I" not in values and "J" not in values:
-                raise self.fail(lineno, "K is an arc centre word of G18/G19, not supported")
+            if "K" in values:  # LinuxCNC: "K word given for arc in XY plane"
+                raise self.fail(lineno, "K is an arc centre word of G18/G19, not of the XY plane (G17)")
             if "I" not in values and "J" not in values:
                 raise self.fail(lineno, f"G{self.motion} needs I/J or R")
             ij = np.array([values.get("I", 0.0), values.get("J", 0.0)]) * scale
             centre = ij + self.offset[:2] if self.arc_absolute else self.pos[:2] + ij
             r0 = float(np.hypot(*(self.pos[:2] - centre)))
             r1 = float(np.hypot(*(target[:2] - centre)))
-            if abs(r1 - r0) > self.opt.arc_radius_tolerance + 1e-3 * r0:
-                raise self.fail(lineno, f"arc end point is {abs(r1 - r0):.4g} mm off the arc's circle "
-                                        f"(radius {r0:.6g} at the start, {r1:.6g} at the end)")
-            if r0 == 0.0:
-                raise self.fail(lineno, "arc centre coincides with its start point")
+            # LinuxCNC's tolerances, in the program's units: within them the radius is blended (a spiral)
+            if problem := centre_arc_problem(r0 / scale, r1 / scale, "inch" if self.inch else "mm"):
+                raise self.fail(lineno, problem)
         turns = values.get("P", 1.0)
         if turns != int(turns) or turns < 1:
             raise self.fail(lineno, f"P{turns:g} on an arc must be a whole number of turns >= 1")

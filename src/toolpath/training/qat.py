@@ -153,9 +153,22 @@ def save(model: torch.fx.GraphModule, example: torch.Tensor, path: Path) -> int:
 
 
 def load(path: Path) -> nn.Module:
-    """A saved INT8 model, callable on (B, 50, 2) float32 windows."""
+    """A saved INT8 model, callable on (B, 50, 2) float32 windows.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        When the file is missing or is not a ``.pt2`` (zip) archive; torch.export's own errors otherwise.
+    """
+    import logging
+    import zipfile
+
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: INT8 model not found; run `dvc repro qat` first")
+    if not zipfile.is_zipfile(path):  # torch.export.load would log a traceback before failing
+        raise ValueError("not a .pt2 (zip) archive")
+    # torchao reports its optional CUDA kernels missing at import: noise on a CPU machine
+    logging.getLogger("torchao").setLevel(logging.ERROR)
     from torchao.quantization.pt2e import allow_exported_model_train_eval
 
     return allow_exported_model_train_eval(torch.export.load(str(path)).module())
