@@ -166,6 +166,10 @@ def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):
     assert "dvc repro label@maple_leaf" in capsys.readouterr().err
     assert sweep_main([*SMOKE, "sweep.model=unknown"]) == 2
     assert "sweep.model" in capsys.readouterr().err
+    (sweep_dir / "optuna.db").write_bytes(bytes(range(256)) * 40)  # a damaged study database
+    assert sweep_main([*SWEEP, "sweep.n_trials=1"]) == 2
+    err = capsys.readouterr().err
+    assert "optuna.db: not a usable Optuna study storage" in err and "Traceback" not in err
 
 
 POSTGRES = os.environ.get("TOOLPATH_TEST_POSTGRES")

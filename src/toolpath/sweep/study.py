@@ -98,9 +98,15 @@ def open_storage(spec: SweepSpec) -> optuna.storages.RDBStorage:
     with warnings.catch_warnings():  # the heartbeat is "experimental" in Optuna 5; it is what resuming needs
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         # two processes creating the tables of a new database race; the loser retries and finds them
-        return tracking.with_retry(lambda: optuna.storages.RDBStorage(
-            spec.storage, engine_kwargs=engine, heartbeat_interval=max(1, spec.heartbeat_seconds // 4),
-            grace_period=spec.heartbeat_seconds))
+        try:
+            return tracking.with_retry(lambda: optuna.storages.RDBStorage(
+                spec.storage, engine_kwargs=engine, heartbeat_interval=max(1, spec.heartbeat_seconds // 4),
+                grace_period=spec.heartbeat_seconds))
+        except Exception as exc:  # a damaged file or an unreachable server: one line, not SQLAlchemy's trace
+            reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+            where = spec.storage.split("@")[-1]
+            raise RuntimeError(f"{where}: not a usable Optuna study storage ({reason}); move the file aside or "
+                               f"point {STORAGE_ENV} elsewhere") from None
 
 
 def _sampler(spec: SweepSpec, worker: int) -> optuna.samplers.TPESampler:
