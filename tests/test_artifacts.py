@@ -111,16 +111,16 @@ def test_json_and_rows(tmp_path):
 def test_a_checkpoint_whose_weights_do_not_fit_its_network_is_one_line(tmp_path):
     import torch
 
-    from toolpath.training.classifier import TorchClassifier, to_checkpoint
-
     from toolpath.models.registry import build
+    from toolpath.training.classifier import TorchClassifier, to_checkpoint
 
     clf = TorchClassifier(network={"_target_": "toolpath.models.MLP"}, settings={})
     clf.network_, clf.history_ = build(clf.network), []
     checkpoint = to_checkpoint(clf)
     checkpoint["state_dict"] = {k: torch.zeros(3) for k in checkpoint["state_dict"]}  # wrong shapes
     artifacts.save_checkpoint(checkpoint, tmp_path / "mlp.pt")
-    with pytest.raises(ArtifactError, match=r"mlp.pt: malformed model file \(RuntimeError.*; run `dvc repro train@gear`"):
+    wrong = r"mlp.pt: malformed model file \(RuntimeError.*; run `dvc repro train@gear`"
+    with pytest.raises(ArtifactError, match=wrong):
         artifacts.load_classifier(tmp_path / "mlp.pt", "train@gear")
     artifacts.save_checkpoint({"network": {"_target_": "no.such.Model"}, "kind": "torch", "settings": {},
                                "state_dict": {}}, tmp_path / "odd.pt")
@@ -152,7 +152,8 @@ def test_errors_cross_a_process_pool_whole():
     from toolpath.gcode import GCodeError
 
     error = pickle.loads(pickle.dumps(ArtifactError("a.pt", "not a readable model file", "train@gear")))
-    assert isinstance(error, ArtifactError) and str(error) == "a.pt: not a readable model file; run `dvc repro train@gear`"
+    assert isinstance(error, ArtifactError)
+    assert str(error) == "a.pt: not a readable model file; run `dvc repro train@gear`"
     line = pickle.loads(pickle.dumps(GCodeError("a.nc", 3, "bad word")))
     assert (line.source, line.line, line.message, str(line)) == ("a.nc", 3, "bad word", "a.nc:3: bad word")
 
@@ -181,3 +182,12 @@ def test_a_report_section_with_a_corrupt_input_names_the_file_and_the_stage(tmp_
     report.categories = section  # the first section of the plan reads the corrupt file
     with pytest.raises(SystemExit, match=r"m.json: not valid JSON .*; run `dvc repro train@gear`"):
         report.sections()
+
+
+def test_the_qat_stage_exits_non_zero_when_a_model_could_not_be_quantised():
+    from toolpath.stages.qat import stop_if_any_failed
+
+    report = {"train_windows": 10, "mlp": {"status": "ok"}, "cnn": {"status": "failed", "reason": "x"}}
+    with pytest.raises(SystemExit, match=r"qat@gear: cnn could not be quantised; the reasons are in m.json"):
+        stop_if_any_failed(report, "gear", "m.json", "int8/gear")
+    stop_if_any_failed({"train_windows": 10, "mlp": {"status": "ok"}}, "gear", "m.json", "int8/gear")

@@ -115,6 +115,18 @@ def test_train_without_windows_exits_with_a_message(smoke_dir):
         train.main(["--shape", "gear"])
 
 
+def test_train_refuses_windows_of_one_category(smoke_dir):
+    """Bounds that put every window in one category leave nothing to learn: one line, not a 100 % model."""
+    from conftest import write_windows
+    from toolpath.stages import train
+
+    write_windows(smoke_dir / "data/windows/gear.npz", np.zeros((6, 50, 2)), [1] * 6, [0, 0, 1, 1, 2, 2])
+    with pytest.raises(SystemExit, match=r"gear.npz: the train split holds windows of category 1 only; check "
+                                         r"label.bounds .*`dvc repro label@gear`"):
+        train.main(["--shape", "gear"])
+    assert not (smoke_dir / "reports/metrics/train/gear").exists()
+
+
 def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
     from toolpath.stages import generalise
 

@@ -113,10 +113,15 @@ def main(argv: list[str] | None = None) -> None:
         artifacts.write_json(report, layout.qat_metrics(args.shape))
         artifacts.write_json(timing, layout.qat_timing(args.shape))
         mlflow.log_dict(report, "qat.json")
-        if failed := [name for name, entry in report.items() if isinstance(entry, dict) and entry["status"] != "ok"]:
-            # the stage could not do its work: DVC must not cache it as done
-            raise SystemExit(f"qat@{args.shape}: {', '.join(failed)} could not be quantised; the reasons are in "
-                             f"{layout.qat_metrics(args.shape)} and {out_dir}/<model>.failed.txt")
+        stop_if_any_failed(report, args.shape, layout.qat_metrics(args.shape), out_dir)
+
+
+def stop_if_any_failed(report: dict, shape: str, metrics_file, out_dir) -> None:
+    """Exit non-zero (after the metrics are written) when a model could not be quantised: the stage
+    could not do its work, and DVC must not cache it as done."""
+    if failed := [name for name, entry in report.items() if isinstance(entry, dict) and entry["status"] != "ok"]:
+        raise SystemExit(f"qat@{shape}: {', '.join(failed)} could not be quantised; the reasons are in "
+                         f"{metrics_file} and {out_dir}/<model>.failed.txt")
 
 
 if __name__ == "__main__":

@@ -15,6 +15,8 @@ import csv
 import time
 from pathlib import Path
 
+import numpy as np
+
 from toolpath import artifacts, config, settings, tracking
 from toolpath.models.registry import parameter_count
 from toolpath.stages._common import progress, shape_arg
@@ -28,6 +30,13 @@ def main(argv: list[str] | None = None) -> None:
     args = shape_arg(__doc__.split("\n")[0], argv, cfg.shapes)
     layout, common = settings.layout(cfg), cfg.train.common
     data = artifacts.load_windows(layout.windows_file(args.shape), args.shape)
+    for split in (artifacts.Split.TRAIN, artifacts.Split.TEST):
+        present = np.unique(data.part(split)[1])
+        if len(present) < 2:  # a classifier would learn, or be scored on, nothing: not a result
+            raise SystemExit(f"{layout.windows_file(args.shape)}: the {split.label} split holds windows of "
+                             f"{'category ' + str(present[0]) if len(present) else 'no category'} only; check "
+                             f"label.bounds {list(cfg.label.bounds)} and label.window, then "
+                             f"`dvc repro label@{args.shape}`")
     programs = {s.label: data.program[data.split == s] for s in artifacts.Split}
     jobs = [replicates.Job(model, r, *settings.training(cfg, args.shape, model, r), common.class_weight)
             for model in cfg.train.models for r in range(cfg.train.replicates if _learned(cfg, model) else 1)]
