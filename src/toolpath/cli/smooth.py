@@ -6,8 +6,9 @@ LocalCurvature rule by default, or a trained FP32 ``.pt`` / INT8 ``.pt2`` model)
 ones with the method their category maps to (mean filter, Bezier fit, NACOA; ``--method`` forces one)
 and rewrites the X/Y numbers of the moved G1 lines only (:mod:`toolpath.optimize.rewrite`).  The
 output is written to a temporary file and renamed; the input is never overwritten unless
-``--in-place``, which first keeps it as ``IN.bak``.  Problems in the input stop with ``FILE:LINE:
-message`` and exit code 1; wrong options with exit code 2.
+``--in-place``, which first keeps it as ``IN.bak``.  ``--arcs`` also replaces runs of G1 lines by
+one G2/G3 where an arc lies within the tolerance (:mod:`toolpath.optimize.arc_weld`).  Problems in
+the input stop with ``FILE:LINE: message`` and exit code 1; wrong options with exit code 2.
 
 The smoothing settings and machine limits are the pipeline's defaults (``params.yaml``: ``optimize``
 and ``feedrate``), repeated here so the command runs outside the repository; a test keeps them equal.
@@ -64,6 +65,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--report", type=Path, help="write a report: REPORT.json, or REPORT.html with the path drawn")
     p.add_argument("--plot", type=Path, help="draw the path before and after, rough windows marked: PLOT.png or .svg")
     p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
+    p.add_argument("--arcs", action="store_true",
+                   help="also replace runs of G1 lines by one G2/G3 where an arc lies within the tolerance")
     return p
 
 
@@ -173,6 +176,8 @@ def run(args: argparse.Namespace) -> dict:
         options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
                                  mapping=DISPATCH, seed=args.seed)
         result = smooth_program(program, predict, options, progress=_progress)
+        if args.arcs:
+            _weld(result, program, args.tolerance)
     except GCodeError as exc:
         raise InputError(str(exc)) from None
     report = summary(args, program, result, machining_time(result.runs_before, result.runs_after), MACHINE)
@@ -185,6 +190,21 @@ def run(args: argparse.Namespace) -> dict:
     if args.plot is not None:
         write_plot(args.plot, result)
     return report
+
+
+def _weld(result, program, tolerance: float) -> None:
+    """``--arcs``: G1 runs of the smoothed program replaced by arcs (:mod:`toolpath.optimize.arc_weld`)."""
+    from toolpath.gcode import ReaderOptions, read_text
+    from toolpath.labels.windows import feed_runs
+    from toolpath.optimize.arc_weld import weld_arcs
+
+    smoothed = read_text(result.text, program.source)
+    text, arcs, lines, note = weld_arcs(smoothed, program, tolerance)
+    result.text, result.arcs, result.arcs_note = text, arcs, note
+    # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
+    coarse = ReaderOptions(chord_tolerance=BLEND_TOLERANCE)
+    result.runs_after = [xy for xy, _ in feed_runs(read_text(text, program.source, coarse))]
+    result.changed_lines = sorted(set(result.changed_lines) | set(lines))
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
@@ -224,5 +244,7 @@ def main(argv: list[str] | None = None) -> int:
     w = report["windows"]
     print(f"{args.input} -> {report['output']}: {w['total']} windows ({w['smoothed']} smoothed), "
           f"{report['lines_changed']} lines changed, largest deviation {report['largest_deviation_mm']:.4f} mm "
-          f"(tolerance {args.tolerance} mm)", file=sys.stderr)
+          f"(tolerance {args.tolerance} mm)" + (f", {report['arcs']['fitted']} arcs replacing "
+                                                f"{report['arcs']['lines_replaced']} G1 lines" if args.arcs else ""),
+          file=sys.stderr)
     return 0

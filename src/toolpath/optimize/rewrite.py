@@ -71,6 +71,8 @@ class Rewrite:
     runs_before: list[np.ndarray]
     runs_after: list[np.ndarray]
     changed_lines: list[int]
+    arcs: list | None = None  # ``--arcs``: :class:`toolpath.optimize.arc_weld.ArcRecord` per arc written
+    arcs_note: str | None = None  # why no arc was fitted at all, when so
 
 
 def _stretches(lines: np.ndarray, movable: np.ndarray, quiet: np.ndarray, program: Program, first: int,

@@ -17,6 +17,7 @@ def summary(args, program, result, times: tuple, machine: dict) -> dict:
     """Everything a machinist checks before running the new program."""
     before, after, why = times
     windows = result.windows
+    arcs = result.arcs or []
     statuses = Counter("kept" if w.status.startswith("kept") else w.status for w in windows)
     return {
         "input": str(args.input), "output": str(args.input if args.in_place else args.output),
@@ -28,12 +29,18 @@ def summary(args, program, result, times: tuple, machine: dict) -> dict:
                                      for c in (1, 2, 3, 4)},
                     "kept_reasons": dict(Counter(w.status[len("kept: "):] for w in windows
                                                  if w.status.startswith("kept")))},
-        "largest_deviation_mm": max((w.deviation_mm for w in windows), default=0.0),
+        "largest_deviation_mm": max([w.deviation_mm for w in windows] + [a.deviation_mm for a in arcs], default=0.0),
+        **({"arcs": {"fitted": len(arcs), "lines_replaced": sum(a.lines_replaced for a in arcs),
+                     "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
+                     "not_fitted_because": result.arcs_note, "rows": [asdict(a) for a in arcs]}}
+           if getattr(args, "arcs", False) else {}),
         "machining_time_s": {"before": before, "after": after,
                              "saved_pct": None if not before or after is None else 100.0 * (1 - after / before),
                              "not_planned_because": why,
                              "machine": machine, "note": "feed planner (seed 002) under the default machine limits, "
-                                                         "feed moves only; rapids are not timed"},
+                                                         "feed moves only; rapids are not timed" +
+                                                         ("; arcs planned as chords within the planner's blend "
+                                                          "tolerance" if getattr(args, "arcs", False) else "")},
         "window_rows": [asdict(w) for w in windows],
     }
 
@@ -100,7 +107,9 @@ def _figure(result, windows):
 
 def _html(report: dict, result) -> str:
     e = html.escape
-    head = {k: v for k, v in report.items() if k not in ("window_rows", "windows", "machining_time_s")}
+    head = {k: v for k, v in report.items() if k not in ("window_rows", "windows", "machining_time_s", "arcs")}
+    if "arcs" in report:
+        head |= {f"arcs {k}": v for k, v in report["arcs"].items() if k != "rows"}
     t = report["machining_time_s"]
     rows = "".join(
         f"<tr><td>{w['first_line']}-{w['last_line']}</td><td>{w['category']}</td><td>{e(w['method'])}</td>"

@@ -1,0 +1,255 @@
+"""``toolpath smooth --arcs``: runs of G1 lines replaced by one G2/G3 where an arc lies within the
+tolerance of the original path, as ArcWelder does for 3-D printers (fewer, longer blocks: a controller
+plans an arc at constant curvature instead of a chain of tiny corners).
+
+Which lines.  A run of consecutive lines (nothing between them) that are each one plain G1 move in
+the XY plane (:func:`toolpath.gcode.edit.movable_lines`), in absolute mode, with an F word on the
+first line at most.  The arc replaces lines ``L(i+1)..L(q)`` (points ``i..q``): the first becomes
+``[N..] G2|G3 X Y I J [F..]`` with its line ending, the others are removed; the line after the arc,
+always a G1 of the run, gets an explicit ``G1`` if it relied on the modal one.  Programs that use
+G90.1 (absolute arc centres) are left alone.
+
+The fit.  The arc passes through the run's first and last point exactly (its centre on their
+perpendicular bisector, placed by least squares on the points between), turns one way by less than a
+full circle, and is grown one point at a time while it stays within the budget.  The budget is the
+tolerance less what writing it costs: half a unit of the last decimal on the end point and on I/J
+(the reader blends the two radii) and the reader's chord tolerance.  While the arc grows it is held
+to an O(n) upper bound of the two-sided distance (:func:`arc_bound`); :func:`weld_arcs` then re-reads
+its output and measures every arc exactly (the Hausdorff distance of the polylines read back).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from toolpath.gcode.edit import movable_lines, program_coordinates
+from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.lexer import tokenize
+from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
+from toolpath.gcode.writer import fmt
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.labels.windows import feed_runs
+
+MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
+MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length
+MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
+_ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
+
+
+@dataclass
+class ArcRecord:
+    """One arc written: the lines it replaced (of the input), its radius and its deviation."""
+
+    first_line: int
+    last_line: int
+    lines_replaced: int
+    radius_mm: float
+    clockwise: bool
+    deviation_mm: float
+
+
+@dataclass(frozen=True)
+class _Arc:
+    centre: np.ndarray
+    radius: float
+    sweep: float  # signed, radians (negative: clockwise)
+
+
+def fit_arc(points: np.ndarray) -> _Arc | None:
+    """The circle through ``points[0]`` and ``points[-1]`` nearest (algebraically) to the points between,
+    when the points turn one way about it by less than a full circle; None otherwise."""
+    origin = points[0]
+    p = points - origin  # local coordinates: no cancellation far from the machine origin
+    chord = p[-1]
+    length = float(np.hypot(*chord))
+    if length == 0.0 or len(p) < 3:
+        return None
+    mid, normal = chord / 2.0, np.array([-chord[1], chord[0]]) / length
+    inner = p[1:-1]
+    # |q - c|^2 = |c|^2 (through the start, at 0) is linear in c: 2 q.c = |q|^2; with c = mid + t normal
+    a = 2.0 * inner @ normal
+    b = np.einsum("ij,ij->i", inner, inner) - 2.0 * inner @ mid
+    if float(a @ a) < 1e-18:
+        return None  # the points lie on the chord: a straight line
+    centre = mid + normal * float(a @ b) / float(a @ a)
+    radius = float(np.hypot(*centre))
+    if not math.isfinite(radius) or radius > MAX_RADIUS:
+        return None
+    angles = np.unwrap(np.arctan2(p[:, 1] - centre[1], p[:, 0] - centre[0]))
+    steps = np.diff(angles)
+    if not (np.all(steps > 0) or np.all(steps < 0)) or np.abs(steps).max() >= math.pi / 2:
+        return None
+    sweep = float(angles[-1] - angles[0])
+    if abs(sweep) >= 2.0 * math.pi - 1e-9:
+        return None
+    return _Arc(centre + origin, radius, sweep)
+
+
+def sample_arc(start: np.ndarray, arc: _Arc, sagitta: float) -> np.ndarray:
+    """Points along ``arc`` from ``start``, chords within ``sagitta`` of it (start and end included)."""
+    step = 4.0 * math.asin(min(1.0, math.sqrt(sagitta / arc.radius / 2.0)))
+    count = max(2, math.ceil(abs(arc.sweep) / step))
+    a0 = math.atan2(start[1] - arc.centre[1], start[0] - arc.centre[0])
+    angle = a0 + arc.sweep * np.arange(count + 1) / count
+    return arc.centre + arc.radius * np.column_stack([np.cos(angle), np.sin(angle)])
+
+
+def arc_deviation(original: np.ndarray, start: np.ndarray, arc: _Arc, sagitta: float) -> float:
+    """Two-sided distance between the original polyline and the arc (sampled, plus the sagitta)."""
+    return float(hausdorff(original, sample_arc(start, arc, sagitta))) + sagitta
+
+
+def arc_bound(original: np.ndarray, arc: _Arc) -> float:
+    """An upper bound, in O(n), of the two-sided distance between the original polyline and the arc:
+    the vertices' largest distance off the circle plus the largest sagitta of a segment on it.  It
+    holds when the vertices turn one way about the centre (inf otherwise): then every point of a
+    segment lies within its ends' radial error plus its sagitta of the arc, and every point of the
+    arc within that of the segment whose vertices bracket its angle."""
+    offset = original - arc.centre
+    angles = np.unwrap(np.arctan2(offset[:, 1], offset[:, 0]))
+    steps = np.diff(angles)
+    if not (np.all(steps * np.sign(arc.sweep) > 0)) or np.abs(steps).max() >= math.pi / 2:
+        return math.inf
+    radial = float(np.abs(np.hypot(offset[:, 0], offset[:, 1]) - arc.radius).max())
+    half = np.hypot(*np.diff(original, axis=0).T) / 2.0
+    sagitta = float((arc.radius - np.sqrt(np.maximum(arc.radius ** 2 - half ** 2, 0.0))).max())
+    return radial + sagitta
+
+
+def _chains(program: Program) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
+    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are consecutive plain G1
+    lines in absolute mode, an F word only on the first: (xy, lines, i, e)."""
+    movable = movable_lines(program)
+    out = []
+    for xy, lines in feed_runs(program):
+        ok = np.zeros(len(lines), bool)
+        for k in range(1, len(lines)):
+            line = int(lines[k])
+            ok[k] = bool(movable[line - 1]) and line == int(lines[k - 1]) + 1 and program.states[line].absolute
+        k = 1
+        while k < len(lines):
+            if not ok[k]:
+                k += 1
+                continue
+            i = k - 1
+            while k < len(lines) and ok[k] and (k == i + 1 or not _has_feed(program, int(lines[k]))):
+                k += 1
+            out.append((xy, lines, i, k - 1))
+    return out
+
+
+def _has_feed(program: Program, line: int) -> bool:
+    return any(w.letter == "F" for w in tokenize(program.lines[line - 1].rstrip("\r\n"), program.source,
+                                                 line).words)
+
+
+def _decimals(program: Program, line: int) -> int:
+    from toolpath.optimize.rewrite import _decimals as line_decimals
+
+    return line_decimals(program, line)
+
+
+def weld_arcs(current: Program, original: Program, tolerance: float,
+              read_options: ReaderOptions | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
+    """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
+    replaced by arcs within ``tolerance`` of ``original``'s path; the arcs; the input lines changed or
+    removed; why no arc was tried (or None).
+
+    Raises
+    ------
+    GCodeError
+        When the re-read output fails the check (an internal error: nothing should be written).
+    """
+    if _ABSOLUTE_CENTRES.search("".join(current.lines)):
+        return "".join(current.lines), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted"
+    chord = (read_options or ReaderOptions()).chord_tolerance
+    point_of_line = {int(line): k for k, line in enumerate(original.lines_of_points)}
+    edits: dict[int, str] = {}
+    records: list[ArcRecord] = []
+    for xy, lines, first, last in _chains(current):
+        original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
+        i = first
+        while i + MIN_SEGMENTS <= last - 1:  # the chain's last line stays a G1 after the arcs
+            best = None
+            for q in range(i + MIN_SEGMENTS, min(last - 1, i + MAX_SEGMENTS) + 1):
+                found = _try(current, xy, lines, original_xy[i - first:q - first + 1], i, q, tolerance, chord)
+                if found is None:
+                    break
+                best = (q, *found)
+            if best is None:
+                i += 1
+                continue
+            q, arc, deviation = best
+            _write(current, xy, lines, i, q, arc, edits)
+            records.append(ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation))
+            i = q
+    text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
+    if records:
+        _verify(text, current, original, records, tolerance, read_options)
+    return text, records, sorted(edits), None
+
+
+def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float, chord: float):
+    arc = fit_arc(xy[i:q + 1])
+    if arc is None:
+        return None
+    line = int(lines[q])
+    scale = MM_PER_INCH if program.states[line].inch else 1.0
+    rounding = 0.5 * 10.0 ** -_decimals(program, line) * scale * math.sqrt(2.0)
+    budget = tolerance - 2.0 * rounding - chord  # end point and I/J rounding, the reader's chords
+    if budget <= 0:
+        return None
+    bound = arc_bound(original_xy, arc)  # cheap while the arc grows; the exact figure comes in _verify
+    return (arc, bound) if bound <= budget else None
+
+
+def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
+    first, end = int(lines[i + 1]), int(lines[q])
+    raw = program.lines[first - 1]
+    body = raw.rstrip("\r\n")
+    words = tokenize(body, program.source, first).words
+    decimals = _decimals(program, end)
+    state = program.states[first - 1]
+    scale = MM_PER_INCH if state.inch else 1.0
+    target = program_coordinates(program, end, xy[q])
+    centre = (arc.centre - xy[i]) / scale
+    parts = [f"N{w.text}" for w in words if w.letter == "N"]
+    parts += [f"G{2 if arc.sweep < 0 else 3}", f"X{fmt(target[0], decimals)}", f"Y{fmt(target[1], decimals)}",
+              f"I{fmt(centre[0], decimals)}", f"J{fmt(centre[1], decimals)}"]
+    parts += [f"F{w.text}" for w in words if w.letter == "F"]
+    edits[first] = " ".join(parts) + raw[len(body):]
+    for line in range(first + 1, end + 1):
+        edits[line] = ""
+    after = end + 1  # a G1 of the chain: it must not inherit the arc's motion mode
+    following = program.lines[after - 1]
+    if not any(w.letter == "G" for w in tokenize(following.rstrip("\r\n"), program.source, after).words):
+        edits.setdefault(after, "G1 " + following.lstrip(" \t"))
+
+
+def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,
+            read_options: ReaderOptions | None) -> None:
+    """Re-read the output: every point outside the arcs is where it was, every arc within the tolerance."""
+    final = read_text(text, current.source, read_options)
+    replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
+    removed = np.zeros(len(current.lines) + 1, bool)
+    for r in records:
+        replaced[r.first_line:r.last_line + 1] = True
+        removed[r.first_line + 1:r.last_line + 1] = True
+    shift = np.cumsum(removed)  # an output line number is the input's less the lines removed before it
+    arc_lines = np.array([r.first_line - shift[r.first_line] for r in records])
+    kept_current = ~replaced[current.lines_of_points]
+    kept_final = ~np.isin(final.lines_of_points, arc_lines)
+    if not np.array_equal(current.points[kept_current], final.points[kept_final]):
+        raise GCodeError(current.source, 0, "internal check failed: welding arcs moved a point it does not own")
+    first_point = {int(line): k for k, line in enumerate(original.lines_of_points)}
+    for r, line in zip(records, arc_lines, strict=True):
+        a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
+        new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
+        r.deviation_mm = float(hausdorff(original.points[a:b + 1, :2], new))
+        if r.deviation_mm > tolerance + 1e-9:
+            raise GCodeError(current.source, r.first_line, f"internal check failed: an arc lies "
+                                                           f"{r.deviation_mm:.6f} mm from the original")

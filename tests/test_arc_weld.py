@@ -1,0 +1,133 @@
+"""`toolpath smooth --arcs`: runs of G1 lines become one G2/G3 only where the arc lies within the two-sided
+tolerance of the original path; every other line stays byte for byte; the next G1 keeps its meaning."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from conftest import REPO
+from toolpath.gcode import read_text
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.labels.windows import feed_runs
+from toolpath.optimize.arc_weld import fit_arc, weld_arcs
+
+CORPUS = REPO.parent / "shared" / "gcode-corpus"
+
+
+def polygon_program(segments: int, radius: float = 10.0, units: str = "G21", decimals: int = 3,
+                    tail: str = "X-10 Y-5") -> str:
+    """A lead-in, a half circle as ``segments`` G1 lines (N and F words on the first), a modal G1, the end."""
+    t = np.linspace(0.0, math.pi, segments + 1)
+    pts = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
+    lines = [f"{units} G90 G17", f"G0 X{pts[0, 0] + radius / 20:.{decimals}f} Y0", "(contour)",
+             f"G1 X{pts[0, 0]:.{decimals}f} Y0 F300",
+             f"N10 G1 X{pts[1, 0]:.{decimals}f} Y{pts[1, 1]:.{decimals}f} F800"]
+    lines += [f"G1 X{x:.{decimals}f} Y{y:.{decimals}f}" for x, y in pts[2:]]
+    lines += [tail, "G0 Z5", "M30"]
+    return "\n".join(lines) + "\n"
+
+
+def _deviation(before: str, after: str) -> float:
+    a, b = feed_runs(read_text(before)), feed_runs(read_text(after))
+    assert len(a) == len(b)
+    return max(float(hausdorff(p[0], q[0])) for p, q in zip(a, b, strict=True))
+
+
+# --- the fit, by hand ---------------------------------------------------------------------------
+
+def test_fit_arc_recovers_a_circle_and_its_direction():
+    t = np.radians([10.0, 30.0, 50.0, 70.0])
+    ccw = np.column_stack([3.0 + 5.0 * np.cos(t), -2.0 + 5.0 * np.sin(t)])
+    arc = fit_arc(ccw)
+    np.testing.assert_allclose(arc.centre, [3.0, -2.0], atol=1e-9)
+    assert arc.radius == pytest.approx(5.0) and arc.sweep == pytest.approx(math.radians(60.0))
+    assert fit_arc(ccw[::-1]).sweep == pytest.approx(-math.radians(60.0))  # clockwise
+
+
+@pytest.mark.parametrize("points", [
+    [[0, 0], [1, 0], [2, 0], [3, 0]],          # a straight line
+    [[0, 0], [1, 1], [2, 0], [3, 1]],          # a zigzag turns both ways
+    [[0, 0], [1e5, 1], [2e5, 0]],              # flatter than MAX_RADIUS
+])
+def test_fit_arc_refuses_what_is_not_one_arc(points):
+    assert fit_arc(np.array(points, float)) is None
+
+
+# --- whole programs ---------------------------------------------------------------------------
+
+def test_a_fine_polygon_becomes_one_arc_and_nothing_else_changes():
+    text = polygon_program(180)
+    program = read_text(text)
+    out, arcs, changed, note = weld_arcs(program, program, 0.01)
+    assert note is None and len(arcs) == 1 and arcs[0].lines_replaced >= 170 and not arcs[0].clockwise
+    old, new = text.splitlines(), out.splitlines()
+    arc_line = new[arcs[0].first_line - 1]
+    assert arc_line.startswith("N10 G3 X") and " I" in arc_line and arc_line.endswith("F800")  # N and F kept
+    # lines before the arc and after the replaced range are the same bytes; the modal G1 is made explicit
+    assert new[:arcs[0].first_line - 1] == old[:arcs[0].first_line - 1]
+    assert new[arcs[0].first_line] == "G1 " + old[arcs[0].last_line]
+    assert new[arcs[0].first_line + 1:] == old[arcs[0].last_line + 1:]
+    assert set(changed) == set(range(arcs[0].first_line, arcs[0].last_line + 2))
+    assert arcs[0].deviation_mm <= 0.01 and _deviation(text, out) <= 0.01 + 1e-9
+    assert read_text(out).points[-1].tolist() == program.points[-1].tolist()
+
+
+def test_a_coarse_polygon_keeps_its_lines():
+    """36 chords on R10 sag 0.0095 mm: an arc through their ends is 0.0095 mm off them, over the budget."""
+    text = polygon_program(36)
+    program = read_text(text)
+    out, arcs, changed, _ = weld_arcs(program, program, 0.01)
+    assert arcs == [] and changed == [] and out == text
+
+
+def test_inch_programs_get_inch_numbers():
+    text = polygon_program(180, radius=0.5, units="G20", decimals=4, tail="X-0.5 Y-0.2")
+    program = read_text(text)
+    out, arcs, _, _ = weld_arcs(program, program, 0.01)
+    assert len(arcs) == 1
+    arc_line = out.splitlines()[arcs[0].first_line - 1]
+    assert " X-0.5000 Y0.0000 I" in arc_line  # program units, the line's four decimals
+    assert _deviation(text, out) <= 0.01 + 1e-9
+
+
+def test_absolute_arc_centres_are_left_alone():
+    text = polygon_program(180).replace("G21 G90 G17", "G21 G90 G90.1 G17")
+    program = read_text(text)
+    out, arcs, _, note = weld_arcs(program, program, 0.01)
+    assert out == text and arcs == [] and "G90.1" in note
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(segments=st.integers(20, 400), radius=st.floats(1.0, 200.0), tolerance=st.sampled_from([0.002, 0.01, 0.05]),
+       noise=st.floats(0.0, 0.01), seed=st.integers(0, 1000))
+def test_property_arcs_stay_within_the_tolerance_and_the_program_keeps_its_end(segments, radius, tolerance, noise,
+                                                                             seed):
+    t = np.linspace(0.0, 1.5 * math.pi, segments + 1)
+    rng = np.random.default_rng(seed)
+    pts = np.column_stack([radius * np.cos(t), radius * np.sin(t)]) + noise * rng.standard_normal((segments + 1, 2))
+    lines = ["G21 G90", f"G0 X{pts[0, 0]:.4f} Y{pts[0, 1]:.4f}"]
+    lines += [f"G1 X{x:.4f} Y{y:.4f} F500" if k == 0 else f"X{x:.4f} Y{y:.4f}" for k, (x, y) in enumerate(pts[1:])]
+    text = "\n".join([*lines, "M30"]) + "\n"
+    program = read_text(text)
+    out, arcs, _, _ = weld_arcs(program, program, tolerance)
+    assert _deviation(text, out) <= tolerance + 1e-9
+    np.testing.assert_array_equal(read_text(out).points[-1], program.points[-1])
+    assert all(a.deviation_mm <= tolerance for a in arcs)
+
+
+@pytest.mark.skipif(not CORPUS.is_dir(), reason="../shared/gcode-corpus is absent (real CAM programs)")
+@pytest.mark.parametrize("name", ["camotics_tiny_cat_outline.ngc", "tinyg_hacdc.gcode"])
+def test_corpus_programs_get_arcs_within_tolerance(name, tmp_path):
+    from toolpath.cli.smooth import main
+
+    source = CORPUS / name
+    assert main([str(source), "-o", str(tmp_path / name), "--arcs", "--report", str(tmp_path / "r.json")]) == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["arcs"]["fitted"] > 10 and report["largest_deviation_mm"] <= 0.01
+    text = source.read_bytes().decode("utf-8", errors="surrogateescape")
+    after = (tmp_path / name).read_bytes().decode("utf-8", errors="surrogateescape")
+    assert _deviation(text, after) <= 0.01 + 1e-9
