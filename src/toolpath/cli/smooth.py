@@ -124,8 +124,8 @@ def classifier(spec: str):
         try:
             model = load_classifier(path, "train")
         except SystemExit as exc:  # ArtifactError: its message names a pipeline stage, not this command
-            raise InputError(f"{path}: not a readable model checkpoint ({str(exc).split(': ', 1)[-1][:120]})") \
-                from None
+            problem = getattr(exc, "problem", str(exc))
+            raise InputError(f"{path}: not a readable model checkpoint ({problem[:160]})") from None
         return lambda X: np.asarray(model.predict(np.asarray(X, np.float32)))
     from toolpath.training.loop import predict_logits
 
