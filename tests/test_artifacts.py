@@ -90,12 +90,16 @@ def test_labels_or_splits_out_of_range_are_refused(tmp_path):
         artifacts.load_windows(path, "gear")
 
 
-@pytest.mark.parametrize("content", [b"garbage", b"", b"PK\x03\x04"])
-def test_a_corrupt_checkpoint_names_the_file_and_the_stage(tmp_path, content):
-    path = tmp_path / "mcrl.pt"
+@pytest.mark.parametrize("content", [b"garbage", b"", b"PK\x03\x04", b"PK\x03\x04 truncated"])
+@pytest.mark.parametrize("name, load, producer, problem", [
+    ("mcrl.pt", artifacts.load_checkpoint, "train@gear-mcrl", "not a readable model file"),
+    ("mlp.pt2", artifacts.load_int8, "qat@gear", "not a readable INT8 model file"),
+])
+def test_a_corrupt_model_file_names_the_file_and_the_stage(tmp_path, content, name, load, producer, problem):
+    path = tmp_path / name
     path.write_bytes(content)
-    with pytest.raises(ArtifactError, match=r"mcrl.pt: not a readable model file .*; run `dvc repro train@gear-mcrl`"):
-        artifacts.load_checkpoint(path, "train@gear-mcrl")
+    with pytest.raises(ArtifactError, match=rf"{name}: {problem} .*; run `dvc repro {producer}`"):
+        load(path, producer)
 
 
 def test_json_and_rows(tmp_path):
@@ -126,14 +130,6 @@ def test_a_checkpoint_whose_weights_do_not_fit_its_network_is_one_line(tmp_path)
                                "state_dict": {}}, tmp_path / "odd.pt")
     with pytest.raises(ArtifactError, match=r"odd.pt: malformed model file"):
         artifacts.load_classifier(tmp_path / "odd.pt", "train@gear")
-
-
-@pytest.mark.parametrize("content", [b"garbage", b"", b"PK\x03\x04 truncated"])
-def test_a_corrupt_int8_program_names_the_file_and_the_stage(tmp_path, content):
-    path = tmp_path / "mlp.pt2"
-    path.write_bytes(content)
-    with pytest.raises(ArtifactError, match=r"mlp.pt2: not a readable INT8 model file .*; run `dvc repro qat@gear`"):
-        artifacts.load_int8(path, "qat@gear")
 
 
 def test_a_corrupt_table_names_the_file_and_the_stage(tmp_path):
