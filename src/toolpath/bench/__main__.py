@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _runtimes(threads: int, repeats: int) -> int:
-    from toolpath.bench.runtimes import RUNTIMES, measure
+    from toolpath.bench.runtimes import CONVERT_OPS, INTEGER_OPS, RUNTIMES, measure
 
     cfg = config.load()
     result = measure(list(cfg.benchmark.models), cfg.shapes[0], threads, repeats)
@@ -161,6 +161,18 @@ def _runtimes(threads: int, repeats: int) -> int:
         table.add_row(name, *cells, f"{best['speedup_same_runtime']:.2f}x" if best else "-",
                       f"{best['speedup_vs_fastest_fp32']:.2f}x" if best else "-")
     Console().print(table)
+    profile = Table(title="ONNX Runtime INT8 graph: share of its time in integer kernels, float <-> int8 conversions "
+                          "and float operators (its profiler)")
+    for column in ("model", "integer", "convert", "float", "largest float operators"):
+        profile.add_column(column, justify="right")
+    for name, entry in result["models"].items():
+        if found := entry.get("onnxruntime_int8_op_profile"):
+            share = found["share_by_kind"]
+            floats = [f"{op} {100 * v:.0f} %" for op, v in found["share_by_op"].items()
+                      if not op.startswith(INTEGER_OPS + CONVERT_OPS)][:3]
+            profile.add_row(name, *(f"{100 * share[k]:.0f} %" for k in ("integer", "convert", "float")),
+                            ", ".join(floats))
+    Console().print(profile)
     for name, entry in result["models"].items():
         for variant, reason in entry["errors"].items():
             print(f"{name}: {variant} could not run: {reason}")
