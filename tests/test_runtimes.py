@@ -57,6 +57,7 @@ def test_compare_reports_every_variant_with_accuracy_and_speedups(trained_mlp, i
     assert not out["errors"] and out["onnx_int8_bytes"] > 0
     assert all(0.9 <= v["test_accuracy"] <= 1 for v in out["variants"].values())
     assert all("speedup_same_runtime" in out["variants"][f"{r}_int8"] for r in runtimes.RUNTIMES)
+    assert all(abs(out["variants"][f"{r}_int8"]["accuracy_drop_points"]) <= 10 for r in runtimes.RUNTIMES)
     profile = out["onnxruntime_int8_op_profile"]  # what the INT8 graph spends its time on, by operator
     assert sum(profile["share_by_kind"].values()) == pytest.approx(1.0)
     assert sum(profile["share_by_op"].values()) == pytest.approx(1.0)

@@ -123,6 +123,8 @@ def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tupl
             row = rows[f"{runtime}_int8"]
             row["speedup_same_runtime"] = row["windows_per_s"] / rows[f"{runtime}_fp32"]["windows_per_s"]
             row["speedup_vs_fastest_fp32"] = row["windows_per_s"] / fastest_fp32[0]
+            # a fast INT8 graph that lost its accuracy is no candidate (issue 22: within 1 point)
+            row["accuracy_drop_points"] = 100.0 * (rows[f"{runtime}_fp32"]["test_accuracy"] - row["test_accuracy"])
     return {"variants": rows, "fastest_fp32": fastest_fp32[1], **sizes}
 
 
