@@ -33,6 +33,7 @@ from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
+from toolpath.optimize.rewrite import line_decimals
 
 MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
 MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length
@@ -89,20 +90,6 @@ def fit_arc(points: np.ndarray) -> _Arc | None:
     return _Arc(centre + origin, radius, sweep)
 
 
-def sample_arc(start: np.ndarray, arc: _Arc, sagitta: float) -> np.ndarray:
-    """Points along ``arc`` from ``start``, chords within ``sagitta`` of it (start and end included)."""
-    step = 4.0 * math.asin(min(1.0, math.sqrt(sagitta / arc.radius / 2.0)))
-    count = max(2, math.ceil(abs(arc.sweep) / step))
-    a0 = math.atan2(start[1] - arc.centre[1], start[0] - arc.centre[0])
-    angle = a0 + arc.sweep * np.arange(count + 1) / count
-    return arc.centre + arc.radius * np.column_stack([np.cos(angle), np.sin(angle)])
-
-
-def arc_deviation(original: np.ndarray, start: np.ndarray, arc: _Arc, sagitta: float) -> float:
-    """Two-sided distance between the original polyline and the arc (sampled, plus the sagitta)."""
-    return float(hausdorff(original, sample_arc(start, arc, sagitta))) + sagitta
-
-
 def arc_bound(original: np.ndarray, arc: _Arc) -> float:
     """An upper bound, in O(n), of the two-sided distance between the original polyline and the arc:
     the vertices' largest distance off the circle plus the largest sagitta of a segment on it.  It
@@ -145,12 +132,6 @@ def _chains(program: Program) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
 def _has_feed(program: Program, line: int) -> bool:
     return any(w.letter == "F" for w in tokenize(program.lines[line - 1].rstrip("\r\n"), program.source,
                                                  line).words)
-
-
-def _decimals(program: Program, line: int) -> int:
-    from toolpath.optimize.rewrite import _decimals as line_decimals
-
-    return line_decimals(program, line)
 
 
 def weld_arcs(current: Program, original: Program, tolerance: float,
@@ -199,7 +180,7 @@ def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: fl
         return None
     line = int(lines[q])
     scale = MM_PER_INCH if program.states[line].inch else 1.0
-    rounding = 0.5 * 10.0 ** -_decimals(program, line) * scale * math.sqrt(2.0)
+    rounding = 0.5 * 10.0 ** -line_decimals(program, line) * scale * math.sqrt(2.0)
     budget = tolerance - 2.0 * rounding - chord  # end point and I/J rounding, the reader's chords
     if budget <= 0:
         return None
@@ -212,7 +193,7 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
     raw = program.lines[first - 1]
     body = raw.rstrip("\r\n")
     words = tokenize(body, program.source, first).words
-    decimals = _decimals(program, end)
+    decimals = line_decimals(program, end)
     state = program.states[first - 1]
     scale = MM_PER_INCH if state.inch else 1.0
     target = program_coordinates(program, end, xy[q])

@@ -127,7 +127,7 @@ def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) ->
     return set(axis_words(program.lines[line - 1].rstrip("\r\n"))) == {"X", "Y"}
 
 
-def _decimals(program: Program, line: int) -> int:
+def line_decimals(program: Program, line: int) -> int:
     """Decimals a moved point is written with: the line's own, at least the default of its units."""
     words = axis_words(program.lines[line - 1].rstrip("\r\n"))
     return max([w.decimals for w in words.values()] + [DEFAULT_DECIMALS[program.states[line - 1].inch]])
@@ -139,7 +139,7 @@ def rounding_margin(program: Program, lines: np.ndarray) -> float:
     for line in lines:
         state = program.states[int(line) - 1]
         scale = MM_PER_INCH if state.inch else 1.0
-        worst = max(worst, 0.5 * 10.0 ** -_decimals(program, int(line)) * scale * np.sqrt(2.0))
+        worst = max(worst, 0.5 * 10.0 ** -line_decimals(program, int(line)) * scale * np.sqrt(2.0))
     return worst
 
 
@@ -195,7 +195,7 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
         for k in range(a + 1, b):
             line = int(lines[k])
             value = program_coordinates(program, line, result.points[k - a])
-            decimals = _decimals(program, line)
+            decimals = line_decimals(program, line)
             words = {"X": fmt(value[0], decimals), "Y": fmt(value[1], decimals)}
             edits[line] = substitute_xy(program.lines[line - 1], words)
         record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
