@@ -73,6 +73,10 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         for model in ("mlp",):  # the smoke profile's QAT models
             assert quantized[model]["status"] == "ok" and quantized[model]["reload_identical"]
             assert (work / f"models/int8/{shape}/{model}.pt2").is_file()
+            for runtime in ("onnxruntime", "openvino"):  # the shipped ONNX files, scored in each runtime
+                scored = quantized[model]["runtimes"][runtime]
+                assert scored["int8_agrees_with_pt2"] >= 0.9 and abs(scored["accuracy_drop_points"]) <= 5
+    assert_shipped_onnx_reloads_and_agrees(work)
     inference = json.loads((work / "reports/metrics/inference.json").read_text())
     assert set(inference) == {"setup", "models", "rule", "mcrl_branch_profile_ms", "paper_table4_s"}
     timing_keys = {"latency_b1_ms", "s_per_batch", "windows_per_s", "windows_per_s_large_batch"}
@@ -82,7 +86,13 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         assert set(entry["test_split_s"]) == {"gear", "pentagram", "maple_leaf"}
     entry = inference["models"]["mlp"]  # the smoke profile quantizes the MLP only
     assert set(entry["int8_eager"]) == timing_keys and entry["int8_file_bytes"] > 0 and "int8_speedup_eager" in entry
-    assert "int8_missing" in inference["models"]["mcrl"]
+    for runtime in ("onnxruntime", "openvino"):  # every runtime, FP32 and the shipped INT8 file
+        assert set(entry[f"{runtime}_int8"]) >= timing_keys and f"int8_speedup_{runtime}" in entry
+    best = entry["shipped"]["runtime"]
+    assert best in ("onnxruntime", "openvino") or "no runtime" in entry["shipped"]["why"]
+    if best is not None:  # each shape's whole split in the shipped runtime, FP32 and INT8
+        assert set(entry["test_split_s"]["gear"]) == {"fp32_eager", f"{best}_fp32", f"{best}_int8", "windows"}
+    assert "int8_missing" in inference["models"]["mcrl"] and inference["models"]["mcrl"]["shipped"]["runtime"] is None
     sequence = json.loads((work / "reports/metrics/sequence.json").read_text())
     assert set(sequence["sheets"]) == {"10", "14"}  # the smoke profile's sheets
     for n in ("10", "14"):
@@ -116,6 +126,26 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)
+
+
+def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
+    """The INT8 ONNX file the qat stage ships gives identical outputs when loaded again, runs in both
+    runtimes, and agrees with the FP32 network on most test windows (the smoke split is easy)."""
+    from toolpath import artifacts
+    from toolpath.artifacts import Split
+    from toolpath.training import runtimes
+
+    X = artifacts.load_windows(work / "data/windows/gear.npz", "label@gear").part(Split.TEST)[0][:512]
+    fp32 = artifacts.load_classifier(work / "models/gear/mlp.pt", "train@gear").network_.eval()
+    import torch
+
+    with torch.inference_mode():
+        expected = fp32(torch.as_tensor(X, dtype=torch.float32)).argmax(1).numpy()
+    for runtime in runtimes.RUNTIMES:
+        first = runtimes.logits(runtimes.runner(work / "models/int8/gear/mlp.onnx", runtime, 1), X)
+        again = runtimes.logits(runtimes.runner(work / "models/int8/gear/mlp.onnx", runtime, 1), X)
+        assert np.array_equal(first, again)
+        assert (first.argmax(1) == expected).mean() >= 0.9
 
 
 @pytest.mark.xdist_group("queue")

@@ -86,3 +86,29 @@ def test_every_configured_float_module_exists_in_its_model():
     for name in cfg.qat.models:
         known = {m for m, _ in build(settings.training(cfg, cfg.shapes[0], name)[0]).named_modules()}
         assert set(float_modules[name]) <= known, name
+
+
+@pytest.mark.parametrize("name", ["convmixer", "cnn", "mcrl"])
+def test_conv1d_as_conv2d_is_the_same_function(name):
+    from toolpath import models
+
+    torch.manual_seed(0)
+    net = {"convmixer": lambda: models.ConvMixer1d(dim=16, depth=2), "cnn": models.CNN, "mcrl": MCRL}[name]().eval()
+    x = torch.randn(16, 50, 2).cumsum(1)
+    as2d = qat.conv1d_as_conv2d(net).eval()
+    assert not any(isinstance(m, torch.nn.Conv1d) for m in as2d.modules())
+    assert any(isinstance(m, torch.nn.Conv1d) for m in net.modules())  # the original is left as it was
+    with torch.inference_mode():
+        torch.testing.assert_close(as2d(x), net(x), rtol=1e-5, atol=1e-5)
+
+
+def test_quantize_conv1d_gives_the_convolutions_int8():
+    from toolpath.models import ConvMixer1d
+
+    torch.manual_seed(0)
+    X, y = easy_split(64)
+    net = ConvMixer1d(dim=16, depth=2).eval()
+    result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1,
+                           quantize_conv1d=True)
+    ops = qat.op_precision(result.model)
+    assert ops["int8"].get("conv2d", 0) == 5 and "conv1d" not in ops["float"]  # embed, 2 depthwise, 2 pointwise

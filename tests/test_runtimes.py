@@ -62,3 +62,57 @@ def test_compare_reports_every_variant_with_accuracy_and_speedups(trained_mlp, i
     assert sum(profile["share_by_kind"].values()) == pytest.approx(1.0)
     assert sum(profile["share_by_op"].values()) == pytest.approx(1.0)
     assert profile["share_by_kind"]["integer"] > 0  # the MLP's quantised linears run as integer kernels
+
+
+def test_smooth_classifier_runs_an_onnx_file_in_either_runtime(trained_mlp, tmp_path):
+    from toolpath.cli.smooth import classifier
+    from toolpath.training import runtimes as shipped_runtimes
+
+    clf, X, _ = trained_mlp
+    x = torch.as_tensor(X)
+    runtimes.export_onnx(clf.network_, x[:2], tmp_path / "mlp.fp32.onnx")
+    expected = predict_logits(clf.network_, x).argmax(1).numpy() + 1
+    for runtime in shipped_runtimes.RUNTIMES:
+        assert (classifier(str(tmp_path / "mlp.fp32.onnx"), runtime)(X) == expected).mean() >= 0.99
+
+
+def test_score_gives_each_runtime_its_metrics_and_int8_drop(trained_mlp, int8_file, tmp_path):
+    from toolpath.models.rule import CLASSES
+    from toolpath.training import runtimes as shipped_runtimes
+    from toolpath.training.metrics import classification_metrics
+
+    def metrics(t, p):
+        return classification_metrics(CLASSES[t], p)
+
+    clf, X, y = trained_mlp
+    size = shipped_runtimes.export_int8(int8_file, torch.as_tensor(X[:2]), tmp_path / "mlp.onnx")
+    again = shipped_runtimes.export_int8(int8_file, torch.as_tensor(X[:2]), tmp_path / "again.onnx")
+    assert size == again and (tmp_path / "again.onnx").read_bytes() == (tmp_path / "mlp.onnx").read_bytes()
+    reference = predict_logits(qat.load(int8_file), torch.as_tensor(X)).argmax(1).numpy()
+    fp32 = float((predict_logits(clf.network_, torch.as_tensor(X)).argmax(1).numpy() == y).mean())
+    out = shipped_runtimes.score(tmp_path / "mlp.onnx", X, y, reference, fp32, 1, metrics)
+    for runtime in shipped_runtimes.RUNTIMES:
+        row = out[runtime]
+        assert row["accuracy_drop_points"] == pytest.approx(100 * (fp32 - row["int8"]["accuracy"]))
+        assert row["int8_agrees_with_pt2"] >= 0.95 and row["int8"]["accuracy"] >= 0.9
+    (tmp_path / "mlp.onnx").write_bytes(b"not onnx")  # a runtime refusing a file is recorded, not raised
+    broken = shipped_runtimes.score(tmp_path / "mlp.onnx", X, y, reference, fp32, 1, metrics)
+    assert all(set(broken[r]) == {"error"} for r in shipped_runtimes.RUNTIMES)
+
+
+def test_shipped_runtime_is_the_fastest_int8_within_the_accuracy_bound():
+    from toolpath.training.bench import shipped
+
+    entry = {"onnxruntime_int8": {"windows_per_s": 200.0, "speedup_vs_fastest_fp32": 1.2},
+             "openvino_int8": {"windows_per_s": 300.0, "speedup_vs_fastest_fp32": 1.8},
+             "int8_speedup_onnxruntime": 1.3, "int8_speedup_openvino": 2.0}
+    qat_entries = {"gear": {"runtimes": {"onnxruntime": {"accuracy_drop_points": 0.2},
+                                         "openvino": {"accuracy_drop_points": 0.9}}},
+                   "maple_leaf": {"runtimes": {"onnxruntime": {"accuracy_drop_points": -0.1},
+                                               "openvino": {"accuracy_drop_points": 0.4}}}}
+    assert shipped(entry, qat_entries, 1.0)["runtime"] == "openvino"
+    assert shipped(entry, qat_entries, 0.5) == {"runtime": "onnxruntime", "speedup_same_runtime": 1.3,
+                                                "speedup_vs_fastest_fp32": 1.2,
+                                                "accuracy_drop_points": {"gear": 0.2, "maple_leaf": -0.1}}
+    none = shipped(entry, qat_entries, 0.1)
+    assert none["runtime"] is None and "within 0.1 points" in none["why"]

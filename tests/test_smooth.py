@@ -238,6 +238,11 @@ def test_cli_names_file_and_line_of_unsupported_input_and_of_a_corrupt_model(tmp
     garbage.write_bytes(b"not a checkpoint")
     done = _run(rough_file, "-o", tmp_path / "out.nc", "--classifier", garbage)
     assert done.returncode == 1 and "model.pt" in done.stderr and "Traceback" not in done.stderr
+    garbage = tmp_path / "model.onnx"
+    garbage.write_bytes(b"not an onnx graph")
+    done = _run(rough_file, "-o", tmp_path / "out.nc", "--classifier", garbage, "--runtime", "onnxruntime")
+    assert done.returncode == 1 and "model.onnx: not a model onnxruntime can run" in done.stderr
+    assert "Traceback" not in done.stderr
     assert not (tmp_path / "out.nc").exists()
 
 

@@ -15,3 +15,25 @@ def test_markdown_and_latex_render_the_same_cells():
         table.add(["only one"])
 
 
+
+
+def test_table4b_states_each_int8_target_met_or_not():
+    from toolpath.reports.speed import int8_gains
+
+    def entry(params, same, fastest, ratio, runtime="openvino"):
+        return {"parameters": params, f"int8_speedup_{runtime}": same, "int8_speedup_eager": 0.5,
+                "fp32_onnx_file_bytes": 1000, "int8_onnx_file_bytes": int(1000 * ratio),
+                "shipped": {"runtime": runtime, "speedup_same_runtime": same, "speedup_vs_fastest_fp32": fastest,
+                            "accuracy_drop_points": {"gear": 0.25}}}
+
+    inference = {"models": {"mcrl": entry(400_000, 1.20, 1.05, 0.5), "cnn": entry(400_000, 1.6, 1.2, 0.3),
+                            "maxvit": entry(400_000, 1.6, 1.2, 0.8), "mlp": entry(40_000, 1.0, 1.0, 0.9),
+                            "rnn": {"parameters": 150_000, "shipped": {"runtime": None, "why": "no runtime keeps"}}}}
+    qat = {"gear": {m: {"tensor_bytes": {"int8": 30, "float32": 10}, "fp32_tensor_bytes": {"float32": 100}}
+                    for m in ("mcrl", "cnn", "maxvit", "mlp")}}
+    rows = {r[0]: r for r in int8_gains(inference, qat).rows}
+    assert rows["mcrl"][-1].startswith("met") and "OpenVINO: 1.20x / 1.05x" in rows["mcrl"]
+    assert rows["mcrl"][-4] == "0.40x"  # INT8 weights 40 of FP32's 100 bytes
+    assert rows["cnn"][-1].startswith("met") and rows["cnn"][-2] == "gear +0.25"
+    assert rows["maxvit"][-1].startswith("not met")  # fast enough, but its file is 0.8x FP32's
+    assert rows["mlp"][-1].startswith("none") and rows["rnn"][-1] == "not met"

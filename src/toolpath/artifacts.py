@@ -92,6 +92,10 @@ class Layout:
     def int8_model(self, shape: str, model: str) -> Path:
         return self.int8_dir(shape) / f"{model}.pt2"
 
+    def int8_onnx(self, shape: str, model: str) -> Path:
+        """The INT8 graph as ONNX (QDQ): what ONNX Runtime and OpenVINO run (:mod:`toolpath.training.runtimes`)."""
+        return self.int8_dir(shape) / f"{model}.onnx"
+
     def train_metrics(self, shape: str, model: str) -> Path:
         return self.metrics / "train" / shape / f"{model}.json"
 

@@ -25,56 +25,12 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from toolpath.training.runtimes import export_onnx, load_int8_program, onnxruntime_runner, openvino_runner
+
 RUNTIMES = ("torch", "onnxruntime", "openvino")
 # ONNX Runtime kernels that compute in integers, and the conversions at their borders
 INTEGER_OPS = ("QLinear", "ConvInteger", "MatMulInteger", "DynamicQuantize", "QGemm", "QAttention")
 CONVERT_OPS = ("QuantizeLinear", "DequantizeLinear")
-
-
-def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: torch.Tensor, path: Path) -> int:
-    """``model`` as an ONNX file with a dynamic batch dimension; returns its size in bytes."""
-    import warnings
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    batch = torch.export.Dim("batch", min=1, max=1 << 16)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the exporter's deprecation and opset notes
-        if isinstance(model, torch.export.ExportedProgram):
-            program = model
-        else:
-            program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
-        # weights inside the one file (the exporter's default puts them in a .data file beside it)
-        torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
-                          external_data=False, verbose=False)
-    return path.stat().st_size
-
-
-def load_int8_program(path: Path) -> torch.export.ExportedProgram:
-    import torchao.quantization.pt2e  # noqa: F401 -- registers the quantize / dequantize ops the file uses
-
-    return torch.export.load(str(path))
-
-
-def onnxruntime_runner(path: Path, threads: int):
-    import onnxruntime as ort
-
-    options = ort.SessionOptions()
-    options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
-    options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-    name = session.get_inputs()[0].name
-    return lambda x: session.run(None, {name: x.numpy()})[0]
-
-
-def openvino_runner(path: Path, threads: int):
-    import openvino as ov  # its telemetry is in the model converters, which this does not use; make opts out
-
-    core = ov.Core()
-    compiled = core.compile_model(str(path), "CPU", {"INFERENCE_NUM_THREADS": threads, "NUM_STREAMS": 1,
-                                                     "INFERENCE_PRECISION_HINT": "f32",
-                                                     "PERFORMANCE_HINT": "LATENCY"})
-    request = compiled.create_infer_request()
-    return lambda x: request.infer({0: x.numpy()})[0]
 
 
 def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor, threads: int,

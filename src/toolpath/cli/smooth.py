@@ -2,7 +2,8 @@
 two-sided tolerance, with nothing else changed.
 
 It reads the program, cuts its feed moves into 50-point windows, classifies each (the exact
-LocalCurvature rule by default, or a trained FP32 ``.pt`` / INT8 ``.pt2`` model), smooths the rough
+LocalCurvature rule by default, a trained FP32 ``.pt`` / INT8 ``.pt2`` model, or an ``.onnx`` file of the
+qat stage run in ONNX Runtime or OpenVINO, ``--runtime``), smooths the rough
 ones with the method their category maps to (mean filter, Bezier fit, NACOA; ``--method`` forces one)
 and rewrites the X/Y numbers of the moved G1 lines only (:mod:`toolpath.optimize.rewrite`).  The
 output is written to a temporary file and renamed; the input is never overwritten unless
@@ -59,7 +60,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="largest two-sided distance (mm) between the new path and the old (default 0.01)")
     p.add_argument("--classifier", default="rule",
-                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt or an INT8 MODEL.pt2")
+                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt, an INT8 MODEL.pt2, or "
+                        "ONNX file (the INT8 MODEL.onnx of models/int8/<shape>/) run in --runtime")
+    p.add_argument("--runtime", default="openvino", choices=("onnxruntime", "openvino"),
+                   help="the runtime of an .onnx classifier (default openvino: the fastest INT8 runtime for most "
+                        "models in Table 4's benchmark; reports/metrics/inference.json names it per model)")
     p.add_argument("--method", default="dispatch", choices=sorted(METHODS),
                    help="dispatch (category 2 mean, 3 Bezier, 4 NACOA: Sec. 5.3) or one method for all rough windows")
     p.add_argument("--report", type=Path, help="write a report: REPORT.json, or REPORT.html with the path drawn")
@@ -98,7 +103,7 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     return args.output, None
 
 
-def classifier(spec: str):
+def classifier(spec: str, runtime: str = "openvino"):
     """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
     if spec == "rule":
         from toolpath.models.rule import LocalCurvatureRule
@@ -108,6 +113,15 @@ def classifier(spec: str):
     path = Path(spec)
     if not path.is_file():
         raise UsageError(f"{spec}: no such model file (or say --classifier rule)")
+    if path.suffix == ".onnx":
+        from toolpath.training import runtimes
+
+        try:
+            run = runtimes.runner(path, runtime, threads=max(1, min(os.cpu_count() or 1, 4)))
+        except Exception as exc:  # noqa: BLE001 - any failure to load is the file's problem, said in one line
+            reason = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
+            raise InputError(f"{path}: not a model {runtime} can run ({reason})") from None
+        return lambda X: runtimes.logits(run, X).argmax(1) + 1
     import torch
 
     if path.suffix == ".pt2":
@@ -170,7 +184,7 @@ def run(args: argparse.Namespace) -> dict:
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
     output, backup = _paths(args)
-    predict = classifier(args.classifier)
+    predict = classifier(args.classifier, args.runtime)
     try:
         program = read_file(args.input)
         options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],

@@ -1,11 +1,15 @@
-"""Inference benchmark for Table 4: FP32 and INT8, eager and compiled, beside the exact rule.
+"""Inference benchmark for Table 4: FP32 and INT8 in torch, ONNX Runtime and OpenVINO, beside the exact rule.
 
 Run: python -m toolpath.stages.benchmark   (also ``make bench``)
 
 Per model: latency at batch 1, throughput at ``benchmark.batch`` (and ``large_batch``), the time to
 classify each shape's whole test split, and the model file sizes; FP32 eager and INT8 eager (the
 reference graph) for every model, FP32 and INT8 compiled with inductor for ``benchmark.compile``
-(30-65 s of compilation per graph here).  Timings use the gear models (the architectures, hence the
+(30-65 s of compilation per graph here), and in ONNX Runtime and OpenVINO the FP32 network (exported
+here) and the qat stage's QDQ INT8 file.  The INT8 runtime shipped per model is the fastest at batch
+``benchmark.batch`` among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test
+accuracy on every shape (the qat stage scores each runtime); each shape's whole test split is timed
+for FP32 eager and the shipped runtime's FP32 and INT8.  Timings use the gear models (the architectures, hence the
 speed, are the same for every shape); the test-split times load each shape's own models.  Plus a
 per-branch profile of MCRL.  Writes the inference metrics (DVC metrics; timings vary between runs by
 nature) and logs them to MLflow.  A benchmark, never a test.
@@ -13,13 +17,19 @@ nature) and logs them to MLflow.  A benchmark, never a test.
 
 from __future__ import annotations
 
+import shutil
+import tempfile
+from pathlib import Path
+
 import torch
 
 from toolpath import artifacts, config, settings, tracking
 from toolpath.artifacts import Split
+from toolpath.models.registry import parameter_count
 from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import progress
-from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, threads
+from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
+from toolpath.training.runtimes import export_onnx
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -45,15 +55,32 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run("benchmark", config.flat(bcfg, "benchmark")), threads(bcfg["threads"]):
         import mlflow
 
+        qat_metrics = {s: artifacts.read_json(layout.qat_metrics(s), f"qat@{s}") for s in shapes}
+        scratch = Path(tempfile.mkdtemp(prefix="benchmark-onnx-"))
         for name in progress(list(bcfg["models"]), "benchmark"):
+            # the FP32 network in the ONNX runtimes: the first shape's, exported here (the architecture,
+            # hence the speed, is every shape's); INT8: each shape's own file of the qat stage
+            fp32_onnx = scratch / f"{name}.fp32.onnx"
+            export_onnx(fp32(shapes[0], name), inputs["batch"][:2], fp32_onnx)
+
+            def onnx(shape: str, n: str = name, fp32_file: Path = fp32_onnx) -> dict:
+                return onnx_runners({"fp32": fp32_file, "int8": layout.int8_onnx(shape, n)}, bcfg["threads"])
+
+            def choose(entry: dict, n: str = name) -> dict:
+                return shipped(entry, {s: qat_metrics[s].get(n, {}) for s in shapes}, bcfg["max_drop_points"])
+
             entry = bench_model(lambda s, n=name: fp32(s, n), lambda s, n=name: int8(s, n), shapes, tests, inputs,
-                                bcfg, name in bcfg["compile"])
+                                bcfg, name in bcfg["compile"], onnx, choose)
+            entry["parameters"] = parameter_count(fp32(shapes[0], name))
             entry["fp32_file_bytes"] = layout.checkpoint(shapes[0], name).stat().st_size
-            int8_path = layout.int8_model(shapes[0], name)
+            int8_path, int8_onnx = layout.int8_model(shapes[0], name), layout.int8_onnx(shapes[0], name)
             entry["int8_file_bytes"] = int8_path.stat().st_size if int8_path.is_file() else None
+            entry["fp32_onnx_file_bytes"] = fp32_onnx.stat().st_size
+            entry["int8_onnx_file_bytes"] = int8_onnx.stat().st_size if int8_onnx.is_file() else None
             if not int8_path.is_file():
                 entry["int8_missing"] = f"{int8_path} not found (see {layout.qat_metrics(shapes[0])})"
             result["models"][name] = entry
+        shutil.rmtree(scratch, ignore_errors=True)
         rule_file = layout.checkpoint(shapes[0], "rule")
         rule = artifacts.load_classifier(rule_file, f"train@{shapes[0]}")
         result["rule"] = bench_rule(rule, shapes, tests, inputs, bcfg)

@@ -5,7 +5,9 @@ Run: python -m toolpath.stages.qat --shape gear
 For each model of ``qat.models``: start from the trained FP32 weights, run QAT through PT2E
 (:mod:`toolpath.training.qat`) on the model's training settings (:func:`toolpath.settings.qat_training`),
 convert, save the INT8 ``.pt2``, reload it and check the outputs are identical, and score
-it on the same test programs as the FP32 model with every Table 3 metric.  A model whose route fails
+it on the same test programs as the FP32 model with every Table 3 metric; then export the INT8 graph
+to ONNX (``<model>.onnx``: what ONNX Runtime and OpenVINO run, :mod:`toolpath.training.runtimes`)
+and score that file in each runtime.  A model whose route fails
 is recorded with the reason (``status: failed``) and the other models go on; no file is written for
 it, and the stage then exits non-zero (its metrics written), so DVC does not take it as done.
 
@@ -31,14 +33,15 @@ TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
 def _worker(job: tuple) -> tuple[dict, float, str | None]:
     """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
-    name, fp32_file, producer, parts, train_settings, freeze_last, out, threads, float_modules = job
+    name, fp32_file, producer, parts, train_settings, freeze_last, out, onnx, threads, float_modules, conv1d = job
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
     artifacts.load_classifier(fp32_file, producer)  # a corrupt file stops the stage, it is no QAT result
     checkpoint = artifacts.load_checkpoint(fp32_file, producer)
     try:
         entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
-                                      float_modules=float_modules)
+                                      float_modules=float_modules, onnx=onnx, threads=threads,
+                                      quantize_conv1d=conv1d)
         return entry, seconds, None
     except Exception as exc:  # a route that fails is a result to report, not a crash
         return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
@@ -91,7 +94,9 @@ def main(argv: list[str] | None = None) -> None:
             threads = max(1, cfg.train.common.threads // qcfg["workers"])
             jobs.append((name, layout.checkpoint(args.shape, name), producer, parts,
                          settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
-                         layout.int8_model(args.shape, name), threads, float_modules[name]))
+                         layout.int8_model(args.shape, name),
+                         layout.int8_onnx(args.shape, name), threads,
+                         float_modules[name], bool(qcfg["quantize_conv1d"])))
         # models are independent: spawned workers, the longest first so two workers finish together;
         # results are collected in config order (the same output for any schedule)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
@@ -108,6 +113,9 @@ def main(argv: list[str] | None = None) -> None:
                 entry["accuracy_drop_points"] = 100.0 * (fp32["accuracy"] - entry["test"]["accuracy"])
                 mlflow.log_metrics({f"{name}.int8.{k}": entry["test"][k] for k in TABLE3})
                 mlflow.log_metric(f"{name}.accuracy_drop_points", entry["accuracy_drop_points"])
+                for runtime, row in entry.get("runtimes", {}).items():
+                    if "accuracy_drop_points" in row:
+                        mlflow.log_metric(f"{name}.{runtime}.accuracy_drop_points", row["accuracy_drop_points"])
             report[name] = entry
             timing[name] = {"qat_seconds": seconds}
         artifacts.write_json(report, layout.qat_metrics(args.shape))

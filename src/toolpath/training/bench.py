@@ -140,11 +140,28 @@ def rates(seconds: dict[str, float], batch: int, large: int) -> dict[str, float]
             "windows_per_s": batch / seconds["batch"], "windows_per_s_large_batch": large / seconds["large"]}
 
 
+def onnx_runners(files: dict[str, Path], threads: int) -> dict[str, Runner]:
+    """``{"<runtime>_<precision>": runner}`` for the ONNX files ``{"fp32": path, "int8": path}`` in every
+    runtime of :mod:`toolpath.training.runtimes` (torch tensors in, like the torch variants)."""
+    from toolpath.training import runtimes
+
+    def on_tensors(run: runtimes.Runner) -> Runner:
+        return lambda x: run(x.numpy())
+
+    return {f"{runtime}_{precision}": on_tensors(runtimes.runner(path, runtime, threads))
+            for runtime in runtimes.RUNTIMES for precision, path in files.items() if path.is_file()}
+
+
 def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Module | None], shapes: list[str],
-                tests: dict, inputs: dict, bcfg: dict, compile_it: bool) -> dict:
-    """Table 4's figures of one model: ``fp32(shape)`` / ``int8(shape)`` give its networks (int8 None
-    when there is no INT8 model); timings on the first shape's networks, then each shape's test split
-    with its own."""
+                tests: dict, inputs: dict, bcfg: dict, compile_it: bool,
+                onnx: Callable[[str], dict[str, Runner]] | None = None,
+                choose: Callable[[dict], dict] | None = None) -> dict:
+    """Table 4's figures of one model.  ``fp32(shape)`` / ``int8(shape)`` give its networks (int8 None
+    when there is no INT8 model), ``onnx(shape)`` its ONNX runtime variants (:func:`onnx_runners`).
+    Latency and throughput of every variant on the first shape's files; INT8 speed-ups per runtime and
+    against the fastest FP32; ``choose(entry)`` names the shipped runtime (:func:`shipped`).  Then each
+    shape's whole test split with its own weights: FP32 eager, and the shipped runtime's FP32 and INT8
+    (the eager INT8 reference graph, slow by construction, is timed on batches only)."""
     runners = {"fp32_eager": fp32(shapes[0])}
     quantized = int8(shapes[0])
     if quantized is not None:
@@ -153,22 +170,32 @@ def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Modul
         runners["fp32_compiled"] = compiled(runners["fp32_eager"])
         if quantized is not None:
             runners["int8_compiled"] = compiled(quantized)
+    if onnx is not None:
+        runners.update(onnx(shapes[0]))
     seconds = timed(runners, inputs, bcfg["repeats"], bcfg["warmup"])
     entry: dict = {v: rates(s, bcfg["batch"], bcfg["large_batch"]) for v, s in seconds.items()}
+    for mode in ("eager", "compiled", "onnxruntime", "openvino"):
+        fp32_key, int8_key = (f"fp32_{mode}", f"int8_{mode}") if mode in ("eager", "compiled") else \
+            (f"{mode}_fp32", f"{mode}_int8")
+        if int8_key in entry and fp32_key in entry:
+            entry[f"int8_speedup_{mode}"] = entry[fp32_key]["s_per_batch"] / entry[int8_key]["s_per_batch"]
+    fastest_fp32 = min((entry[v]["s_per_batch"], v) for v in entry if "fp32" in v)
+    entry["fastest_fp32"] = fastest_fp32[1]
+    for v in [v for v in entry if "int8" in v and isinstance(entry[v], dict)]:
+        entry[v]["speedup_vs_fastest_fp32"] = fastest_fp32[0] / entry[v]["s_per_batch"]
+    if choose is not None:
+        entry["shipped"] = choose(entry)
+    best = (entry.get("shipped") or {}).get("runtime")
     split: dict = {}
-    for shape in shapes:  # each shape's own weights, eager
+    for shape in shapes:  # each shape's own weights
         variants = {"fp32_eager": fp32(shape)}
-        own = int8(shape)
-        if own is not None:
-            variants["int8_eager"] = own
+        if best is not None and onnx is not None:
+            variants.update({v: run for v, run in onnx(shape).items() if v.startswith(f"{best}_")})
         # one timed pass after a warm-up on a slice: a 5,000-window split takes seconds, not microseconds
         split[shape] = {v: s["test"] for v, s in timed(variants, {"test": tests[shape]}, bcfg["split_repeats"],
                                                         0, warm=tests[shape][:bcfg["batch"]]).items()}
         split[shape]["windows"] = len(tests[shape])
     entry["test_split_s"] = split
-    for mode in ("eager", "compiled"):
-        if f"int8_{mode}" in entry and f"fp32_{mode}" in entry:
-            entry[f"int8_speedup_{mode}"] = entry[f"fp32_{mode}"]["s_per_batch"] / entry[f"int8_{mode}"]["s_per_batch"]
     return entry
 
 
@@ -182,3 +209,23 @@ def bench_rule(rule, shapes: list[str], tests: dict, inputs: dict, bcfg: dict) -
     entry["test_split_s"] = {s: timed({"rule": run}, {"test": tests[s]}, bcfg["split_repeats"], 0,
                                       warm=tests[s][:bcfg["batch"]])["rule"]["test"] for s in shapes}
     return entry
+
+
+def shipped(entry: dict, qat_entries: dict[str, dict], max_drop_points: float) -> dict:
+    """The INT8 runtime to ship for one model: the fastest INT8 ONNX variant of ``entry`` at the
+    throughput batch among the runtimes whose INT8 file lost at most ``max_drop_points`` of test
+    accuracy against the FP32 network on every shape (``qat_entries``: the qat stage's record of
+    the model per shape).  With none eligible, ``runtime`` is None and ``why`` says so."""
+    from toolpath.training.runtimes import RUNTIMES
+
+    drops = {r: [q.get("runtimes", {}).get(r, {}).get("accuracy_drop_points") for q in qat_entries.values()]
+             for r in RUNTIMES}
+    eligible = [r for r in RUNTIMES if f"{r}_int8" in entry and drops[r] and
+                all(d is not None and d <= max_drop_points for d in drops[r])]
+    if not eligible:
+        return {"runtime": None, "why": f"no runtime keeps every shape's INT8 accuracy within {max_drop_points} "
+                                        f"points of FP32: {drops}"}
+    best = max(eligible, key=lambda r: entry[f"{r}_int8"]["windows_per_s"])
+    return {"runtime": best, "accuracy_drop_points": dict(zip(qat_entries, drops[best], strict=True)),
+            "speedup_same_runtime": entry.get(f"int8_speedup_{best}"),
+            "speedup_vs_fastest_fp32": entry[f"{best}_int8"]["speedup_vs_fastest_fp32"]}

@@ -50,9 +50,57 @@ def export(net: nn.Module, example: torch.Tensor) -> torch.export.ExportedProgra
     return torch.export.export(net, (example,), dynamic_shapes=_dynamic_batch())
 
 
-def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] = ()) -> torch.fx.GraphModule:
+class Conv1dAs2d(nn.Module):
+    """A ``Conv1d`` computed as a ``Conv2d`` of height 1: the same weights and the same function.  The
+    x86 quantizer annotates 2-D convolutions only, so this is how a 1-D convolution gets INT8 weights
+    (per channel) and, in ONNX Runtime and OpenVINO, INT8 kernels."""
+
+    def __init__(self, conv: nn.Conv1d) -> None:
+        super().__init__()
+        padding = _explicit_padding(conv)
+        if padding is None:
+            raise ValueError(f"{conv}: 'same' padding with an even kernel span has no symmetric Conv2d form")
+        self.conv = nn.Conv2d(conv.in_channels, conv.out_channels, (1, conv.kernel_size[0]),
+                              stride=(1, conv.stride[0]), padding=padding, dilation=(1, conv.dilation[0]),
+                              groups=conv.groups, bias=conv.bias is not None, padding_mode=conv.padding_mode)
+        with torch.no_grad():
+            self.conv.weight.copy_(conv.weight.unsqueeze(2))
+            if conv.bias is not None:
+                self.conv.bias.copy_(conv.bias)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.conv(x.unsqueeze(2)).squeeze(2)
+
+
+def _explicit_padding(conv: nn.Conv1d) -> tuple[int, int] | None:
+    """The Conv2d padding of ``conv`` as numbers (the quantizer matches the plain conv2d op only, not
+    its 'same' overload); None where 'same' would pad unevenly."""
+    if conv.padding == "valid":
+        return (0, 0)
+    if conv.padding == "same":
+        span = conv.dilation[0] * (conv.kernel_size[0] - 1)
+        return None if span % 2 or conv.stride[0] != 1 else (0, span // 2)
+    return (0, conv.padding[0])
+
+
+def conv1d_as_conv2d(net: nn.Module) -> nn.Module:
+    """A copy of ``net`` with every ``Conv1d`` replaced by its :class:`Conv1dAs2d` (module names kept;
+    one whose 'same' padding would be uneven stays a Conv1d, in float)."""
+    import copy
+
+    net = copy.deepcopy(net)
+    for module in list(net.modules()):
+        for name, child in list(module.named_children()):
+            if isinstance(child, nn.Conv1d) and _explicit_padding(child) is not None:
+                setattr(module, name, Conv1dAs2d(child))
+    return net
+
+
+def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] = (),
+            quantize_conv1d: bool = False) -> torch.fx.GraphModule:
     """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer,
-    leaving the modules named in ``float_modules`` (``named_modules()`` names) in float."""
+    leaving the modules named in ``float_modules`` (``named_modules()`` names) in float;
+    ``quantize_conv1d``: 1-D convolutions too (:class:`Conv1dAs2d`), else they stay float."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
     from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
@@ -61,6 +109,8 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
     )
 
     net.eval()
+    if quantize_conv1d:
+        net = conv1d_as_conv2d(net).eval()
     quantizer = X86InductorQuantizer().set_global(get_default_x86_inductor_quantization_config(is_qat=True))
     known = {name for name, _ in net.named_modules()}
     for name in float_modules:
@@ -110,18 +160,19 @@ class QATResult:
 
 def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings, X_val: np.ndarray,
               y_val: np.ndarray, freeze_last: int = 1, on_epoch: Callable[[EpochRecord], None] | None = None,
-              float_modules: Sequence[str] = ()) -> QATResult:
+              float_modules: Sequence[str] = (), quantize_conv1d: bool = False) -> QATResult:
     """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
 
     ``settings`` is the FP32 schedule (learning rate, batch) with the QAT epoch count, run as a
     fine-tune on Table 2's staircase (about constant over QAT's few steps): no warm-up, no clipping,
     no early stopping or best-state restore (a restored state would mix observer states).
-    Observers freeze after epoch ``epochs - freeze_last``; ``float_modules`` stay unquantized.
+    Observers freeze after epoch ``epochs - freeze_last``; ``float_modules`` stay unquantized, and
+    1-D convolutions too unless ``quantize_conv1d``.
     """
     if not 0 <= freeze_last < settings.epochs:
         raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
     example = torch.as_tensor(X[:2], dtype=torch.float32)
-    prepared = prepare(net, example, float_modules)
+    prepared = prepare(net, example, float_modules, quantize_conv1d)
 
     def hook(record: EpochRecord) -> None:
         if record.epoch == settings.epochs - freeze_last:
@@ -205,18 +256,22 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
 
 
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
-                 out: Path, show_epochs: bool = True, float_modules: Sequence[str] = ()) -> tuple[dict, float]:
+                 out: Path, show_epochs: bool = True, float_modules: Sequence[str] = (),
+                 onnx: Path | None = None, threads: int = 1,
+                 quantize_conv1d: bool = False) -> tuple[dict, float]:
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
-    ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT)."""
+    ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT).
+    With ``onnx`` (a path): also export the INT8 graph there as ONNX and score it in every runtime of
+    :mod:`toolpath.training.runtimes` (on ``threads`` threads) against the FP32 network's accuracy."""
     clf = from_checkpoint(checkpoint)
     started = time.perf_counter()
     if show_epochs:
         with EpochBar(f"qat {name}", settings.epochs) as bar:
             result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                               on_epoch=bar.update, float_modules=float_modules)
+                               on_epoch=bar.update, float_modules=float_modules, quantize_conv1d=quantize_conv1d)
     else:
         result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                           float_modules=float_modules)
+                           float_modules=float_modules, quantize_conv1d=quantize_conv1d)
     seconds = time.perf_counter() - started
     X_test = torch.as_tensor(parts["test"][0])
     logits = predict_logits(result.model, X_test)
@@ -224,8 +279,18 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     reloaded = predict_logits(load(out), X_test[:RELOAD_CHECK])  # the saved graph, on a slice: same bytes out
     proba = torch.softmax(logits, dim=1).numpy()
     metrics = classification_metrics(CATEGORIES[parts["test"][1]], proba)
-    return {"status": "ok", "test": metrics, "reload_identical": bool(torch.equal(logits[:RELOAD_CHECK], reloaded)),
+    shipped: dict = {}
+    if onnx is not None:
+        from toolpath.training import runtimes
+
+        fp32_predictions = predict_logits(from_checkpoint(checkpoint).network_.eval(), X_test).argmax(1).numpy()
+        fp32_accuracy = float((fp32_predictions == parts["test"][1]).mean())
+        shipped = {"onnx_file_bytes": runtimes.export_int8(out, X_test[:2], onnx),
+                   "runtimes": runtimes.score(onnx, *parts["test"], proba.argmax(1), fp32_accuracy, threads,
+                                              lambda y, p: classification_metrics(CATEGORIES[y], p))}
+    return {"status": "ok", "test": metrics, **shipped,
+            "reload_identical": bool(torch.equal(logits[:RELOAD_CHECK], reloaded)),
             "file_bytes": size, "tensor_bytes": tensor_bytes(result.model),
             "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
             "ops": op_precision(result.model), "epochs": len(result.history),
-            "float_modules": list(float_modules)}, seconds
+            "float_modules": list(float_modules), "quantize_conv1d": quantize_conv1d}, seconds

@@ -1,0 +1,115 @@
+"""Our models in the two ONNX runtimes Table 4 ships for: ONNX Runtime and OpenVINO.
+
+The qat stage exports each QAT INT8 graph (the PT2E program of the ``.pt2``, its learned scales
+included) to ONNX (``torch.onnx.export(..., dynamo=True)``, the weights inside the one file), which
+becomes a QDQ model: ONNX Runtime fuses its quantize / dequantize pairs into integer kernels where it
+can, OpenVINO's CPU plugin likewise.  One INT8 file runs in both runtimes, so the accuracy scored here
+is the accuracy of the artefact the benchmark times and ``toolpath smooth --classifier MODEL.onnx``
+loads.  The benchmark stage exports the FP32 networks the same way to time them beside it.
+OpenVINO is compiled with f32 as its inference precision: its default on this CPU, bf16, changes FP32 predictions.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import torch
+
+RUNTIMES = ("onnxruntime", "openvino")
+PRECISIONS = ("fp32", "int8")
+Runner = Callable[[np.ndarray], np.ndarray]
+
+
+def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: torch.Tensor, path: Path) -> int:
+    """``model`` (a network, or an exported program such as a QAT INT8 graph) as one ONNX file with a
+    dynamic batch dimension; returns its size in bytes.  The same model gives the same bytes."""
+    import logging
+
+    logging.getLogger("torch.onnx").setLevel(logging.ERROR)  # "torchvision is not installed", per export
+    path.parent.mkdir(parents=True, exist_ok=True)
+    batch = torch.export.Dim("batch", min=1, max=1 << 16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the exporter's deprecation and opset notes
+        if isinstance(model, torch.export.ExportedProgram):
+            program = model
+        else:
+            program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
+        # weights inside the one file (the exporter's default puts them in a .data file beside it)
+        torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
+                          external_data=False, verbose=False)
+    return path.stat().st_size
+
+
+def load_int8_program(path: Path) -> torch.export.ExportedProgram:
+    """The PT2E program of a ``.pt2`` INT8 file (the quantize / dequantize ops it uses registered)."""
+    import logging
+
+    logging.getLogger("torchao").setLevel(logging.ERROR)  # its optional CUDA kernels: noise on a CPU
+    import torchao.quantization.pt2e  # noqa: F401
+
+    return torch.export.load(str(path))
+
+
+def onnxruntime_runner(path: Path, threads: int) -> Runner:
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
+    options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    options.log_severity_level = 3  # errors only: its notes on unused initialisers are not ours to act on
+    session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+    name = session.get_inputs()[0].name
+    return lambda x: session.run(None, {name: np.ascontiguousarray(x, dtype=np.float32)})[0]
+
+
+def openvino_runner(path: Path, threads: int) -> Runner:
+    import openvino as ov  # telemetry lives in its model converters, which this does not use; make opts out
+
+    core = ov.Core()
+    compiled = core.compile_model(str(path), "CPU", {"INFERENCE_NUM_THREADS": threads, "NUM_STREAMS": 1,
+                                                     "INFERENCE_PRECISION_HINT": "f32",
+                                                     "PERFORMANCE_HINT": "LATENCY"})
+    request = compiled.create_infer_request()
+    return lambda x: np.array(request.infer({0: np.ascontiguousarray(x, dtype=np.float32)})[0])
+
+
+def runner(path: Path, runtime: str, threads: int) -> Runner:
+    """A function from (B, 50, 2) float32 windows to (B, 4) logits, running ``path`` in ``runtime``."""
+    if runtime not in RUNTIMES:
+        raise ValueError(f"runtime must be one of {RUNTIMES}, got {runtime!r}")
+    return (onnxruntime_runner if runtime == "onnxruntime" else openvino_runner)(Path(path), threads)
+
+
+def logits(run: Runner, X: np.ndarray, chunk: int = 1024) -> np.ndarray:
+    """``run`` over ``X`` in chunks of ``chunk`` windows."""
+    X = np.asarray(X, dtype=np.float32)
+    return np.concatenate([run(X[i:i + chunk]) for i in range(0, len(X), chunk)]) if len(X) else np.zeros((0, 4))
+
+
+def export_int8(int8_program: Path, example: torch.Tensor, path: Path) -> int:
+    """The INT8 ``.pt2`` program (the QAT graph with its learned scales) as an ONNX QDQ file; its size."""
+    return export_onnx(load_int8_program(int8_program), example, path)
+
+
+def score(int8_file: Path, X: np.ndarray, y: np.ndarray, reference: np.ndarray, fp32_accuracy: float, threads: int,
+          metrics: Callable[[np.ndarray, np.ndarray], dict]) -> dict:
+    """The INT8 ONNX file in every runtime on a test split: its Table 3 ``metrics(y, probabilities)``,
+    its accuracy drop in points against the FP32 network's ``fp32_accuracy`` (the model as trained:
+    what shipping INT8 in that runtime costs), and how often it agrees with ``reference`` (the ``.pt2``
+    graph's predictions).  A runtime that cannot run the file is a finding, recorded with its reason."""
+    out: dict = {}
+    for runtime in RUNTIMES:
+        try:
+            z = logits(runner(int8_file, runtime, threads), X)
+        except Exception as exc:  # noqa: BLE001 - a runtime refusing a graph is reported, not raised
+            out[runtime] = {"error": f"{type(exc).__name__}: {str(exc)[:300]}"}
+            continue
+        z = np.exp(z - z.max(axis=1, keepdims=True))
+        proba = z / z.sum(axis=1, keepdims=True)
+        row = {"int8": metrics(y, proba), "int8_agrees_with_pt2": float((proba.argmax(1) == reference).mean())}
+        row["accuracy_drop_points"] = 100.0 * (fp32_accuracy - row["int8"]["accuracy"])
+        out[runtime] = row
+    return out
