@@ -106,9 +106,20 @@ def test_quantize_conv1d_gives_the_convolutions_int8():
     from toolpath.models import ConvMixer1d
 
     torch.manual_seed(0)
-    X, y = easy_split(64)
-    net = ConvMixer1d(dim=16, depth=2).eval()
+    X, y = easy_split(32)
+    net = ConvMixer1d(dim=8, depth=1).eval()
     result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1,
                            quantize_conv1d=True)
     ops = qat.op_precision(result.model)
-    assert ops["int8"].get("conv2d", 0) == 5 and "conv1d" not in ops["float"]  # embed, 2 depthwise, 2 pointwise
+    assert ops["int8"].get("conv2d", 0) == 3 and "conv1d" not in ops["float"]  # embed, depthwise, pointwise
+
+
+def test_reduce_range_quantizes_activations_on_seven_bits(trained_mlp):
+    clf, X, _ = trained_mlp
+    example = torch.as_tensor(X[:2])
+    ranges = {}
+    for reduce in (False, True):
+        prepared = qat.prepare(clf.network_, example, reduce_range=reduce)
+        # activation fake-quantizers are unsigned (quant_min 0); weights are signed, per channel
+        ranges[reduce] = {m.quant_max for m in prepared.modules() if getattr(m, "quant_min", None) == 0}
+    assert ranges == {False: {255}, True: {127}}

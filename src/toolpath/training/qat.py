@@ -97,10 +97,12 @@ def conv1d_as_conv2d(net: nn.Module) -> nn.Module:
 
 
 def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] = (),
-            quantize_conv1d: bool = False) -> torch.fx.GraphModule:
+            quantize_conv1d: bool = False, reduce_range: bool = False) -> torch.fx.GraphModule:
     """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer,
     leaving the modules named in ``float_modules`` (``named_modules()`` names) in float;
-    ``quantize_conv1d``: 1-D convolutions too (:class:`Conv1dAs2d`), else they stay float."""
+    ``quantize_conv1d``: 1-D convolutions too (:class:`Conv1dAs2d`), else they stay float;
+    ``reduce_range``: activations on 7 bits (0-127), so that x86 CPUs without VNNI, whose u8 x s8
+    kernels (VPMADDUBSW) add pairs of products in saturating 16-bit lanes, compute them exactly."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
     from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
@@ -111,7 +113,8 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
     net.eval()
     if quantize_conv1d:
         net = conv1d_as_conv2d(net).eval()
-    quantizer = X86InductorQuantizer().set_global(get_default_x86_inductor_quantization_config(is_qat=True))
+    quantizer = X86InductorQuantizer().set_global(
+        get_default_x86_inductor_quantization_config(is_qat=True, reduce_range=reduce_range))
     known = {name for name, _ in net.named_modules()}
     for name in float_modules:
         if name not in known:
@@ -160,7 +163,8 @@ class QATResult:
 
 def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings, X_val: np.ndarray,
               y_val: np.ndarray, freeze_last: int = 1, on_epoch: Callable[[EpochRecord], None] | None = None,
-              float_modules: Sequence[str] = (), quantize_conv1d: bool = False) -> QATResult:
+              float_modules: Sequence[str] = (), quantize_conv1d: bool = False,
+              reduce_range: bool = False) -> QATResult:
     """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
 
     ``settings`` is the FP32 schedule (learning rate, batch) with the QAT epoch count, run as a
@@ -172,7 +176,7 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
     if not 0 <= freeze_last < settings.epochs:
         raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
     example = torch.as_tensor(X[:2], dtype=torch.float32)
-    prepared = prepare(net, example, float_modules, quantize_conv1d)
+    prepared = prepare(net, example, float_modules, quantize_conv1d, reduce_range)
 
     def hook(record: EpochRecord) -> None:
         if record.epoch == settings.epochs - freeze_last:
@@ -258,7 +262,7 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
                  out: Path, show_epochs: bool = True, float_modules: Sequence[str] = (),
                  onnx: Path | None = None, threads: int = 1,
-                 quantize_conv1d: bool = False) -> tuple[dict, float]:
+                 quantize_conv1d: bool = False, reduce_range: bool = False) -> tuple[dict, float]:
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
     ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT).
     With ``onnx`` (a path): also export the INT8 graph there as ONNX and score it in every runtime of
@@ -268,10 +272,11 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     if show_epochs:
         with EpochBar(f"qat {name}", settings.epochs) as bar:
             result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                               on_epoch=bar.update, float_modules=float_modules, quantize_conv1d=quantize_conv1d)
+                               on_epoch=bar.update, float_modules=float_modules, quantize_conv1d=quantize_conv1d,
+                               reduce_range=reduce_range)
     else:
         result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                           float_modules=float_modules, quantize_conv1d=quantize_conv1d)
+                           float_modules=float_modules, quantize_conv1d=quantize_conv1d, reduce_range=reduce_range)
     seconds = time.perf_counter() - started
     X_test = torch.as_tensor(parts["test"][0])
     logits = predict_logits(result.model, X_test)
@@ -293,4 +298,5 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
             "file_bytes": size, "tensor_bytes": tensor_bytes(result.model),
             "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
             "ops": op_precision(result.model), "epochs": len(result.history),
-            "float_modules": list(float_modules), "quantize_conv1d": quantize_conv1d}, seconds
+            "float_modules": list(float_modules), "quantize_conv1d": quantize_conv1d,
+            "reduce_range": reduce_range}, seconds
