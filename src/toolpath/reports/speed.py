@@ -67,7 +67,9 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
                         if s in e.get("test_split_s", {})), "?") for s in shapes}
     table.notes += [
         "Workload: the whole test split of each shape (" + ", ".join(f"{s} {n} windows" for s, n in windows.items())
-        + f") in batches of {setup.get('batch', '?')}, median of {setup.get('repeats', '?')} interleaved repetitions, "
+        + f") classified in one call per variant after a warm-up batch (the split's seconds); windows/s at batch "
+        f"{setup.get('batch', '?')} and latency at batch 1: medians of {setup.get('repeats', '?')} interleaved "
+        "repetitions; "
         f"{setup.get('torch_threads', '?')} torch threads on {setup.get('cpu', '?')} "
         f"({setup.get('cores', '?')} cores), "
         f"torch {setup.get('torch', '?')}. The paper's seconds are for a workload it does not state, on a GPU: "
