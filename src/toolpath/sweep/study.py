@@ -172,6 +172,7 @@ def open_study(spec: SweepSpec, worker: int = 0) -> optuna.Study:
     except optuna.exceptions.DuplicatedStudyError:
         study = optuna.load_study(study_name=spec.study, storage=storage, sampler=_sampler(spec, worker))
         _wait_for_parent(study)
+        _let_creator_take_enqueued(study)
         return study
     for key, value in (("shape", spec.shape), ("model", spec.model), ("objective", spec.objective),
                        ("base_overrides", list(spec.base_overrides))):
@@ -195,6 +196,18 @@ def open_study(spec: SweepSpec, worker: int = 0) -> optuna.Study:
         client.log_param(run.info.run_id, key, str(value)[:6000])
     study.set_user_attr(PARENT_ATTR, run.info.run_id)
     return study
+
+
+def _let_creator_take_enqueued(study: optuna.Study, seconds: float = 60.0) -> None:
+    """Start once the enqueued (default) trial is taken.  SQLite has no row locks: two processes can
+    both take the one waiting trial, and the second then fails with "Cannot tell a COMPLETE trial"
+    (seen on a slow machine).  The process that created the study takes it first; the others wait,
+    at most ``seconds`` (a resumed study may hold a trial left waiting by a killed launch)."""
+    deadline = time.monotonic() + seconds
+    while study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.WAITING,)):
+        if time.monotonic() > deadline:
+            return
+        time.sleep(0.5)
 
 
 def _wait_for_parent(study: optuna.Study) -> str:
