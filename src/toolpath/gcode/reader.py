@@ -25,8 +25,7 @@ and every malformed word.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from enum import IntEnum
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,20 +34,14 @@ from toolpath.gcode.arcs import RADIUS_TOLERANCE, centre_arc_problem, centre_fro
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
-from toolpath.gcode.text import MAX_LINE_LENGTH, read_bounded, split_lines
+from toolpath.gcode.program import Lines, Motion, Program, StateTable
+from toolpath.gcode.scanner import Scan, scan
+from toolpath.gcode.text import MAX_LINE_LENGTH, read_bounded
 
 MM_PER_INCH = 25.4
 # The most points one program may expand to (480 MB of coordinates): a program past it is refused by
 # name, not read until the machine runs out of memory.
 MAX_POINTS = 20_000_000
-
-
-class Motion(IntEnum):
-    """Motion kind of the move that arrives at a point."""
-
-    RAPID = 0
-    FEED = 1
-    ARC = 2
 
 
 @dataclass(frozen=True)
@@ -69,41 +62,6 @@ class ReaderOptions:
             raise ValueError(f"chord_tolerance must be a number > 0 (mm), not {self.chord_tolerance!r}")
         if self.initial_motion not in (0, 1):
             raise ValueError(f"initial_motion must be 0 (rapid) or 1 (feed), not {self.initial_motion!r}")
-
-
-@dataclass
-class LineState:
-    """Modal state after one line, for the writer to replace motion faithfully."""
-
-    motion: int | None
-    absolute: bool
-    inch: bool
-    position: tuple[float, float, float]
-    offset: tuple[float, float, float]
-    feed: float | None
-
-
-@dataclass
-class Program:
-    """A read program: its raw lines and the tool positions its motion reaches.
-
-    ``points`` (n, 3) are in mm in the frame of the program's start (G92 shifts applied);
-    ``kinds`` holds :class:`Motion` values; ``lines_of_points`` the 1-based source line of each.
-    ``states[k]`` is the modal state after line ``k`` (``states[0]``: before the first line).
-    """
-
-    source: str
-    lines: list[str]
-    points: np.ndarray
-    kinds: np.ndarray
-    lines_of_points: np.ndarray
-    units: str
-    states: list[LineState] = field(repr=False)
-
-    @property
-    def feed_mask(self) -> np.ndarray:
-        """True where a point is reached by cutting motion (G1, G2, G3)."""
-        return self.kinds != Motion.RAPID
 
 
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
@@ -135,15 +93,15 @@ class _Interpreter:
         self.ended = False
         self.started = False  # a line with words (or a '%') has been seen
         self.params = Parameters()
-        # per emitted block: its points (k, 3), and k, kind and line for np.repeat at the end
+        self.text = ""  # the program's text, for the lines run_plain hands to run_block
+        # per emitted block: its points (k, 3), their kinds and lines, concatenated at the end
         self.points: list[np.ndarray] = []
-        self.counts: list[int] = []
-        self.kinds: list[int] = []
-        self.point_lines: list[int] = []
+        self.kinds: list[np.ndarray] = []
+        self.point_lines: list[np.ndarray] = []
         self.total = 0
 
-    def state(self) -> LineState:
-        return LineState(self.motion, self.absolute, self.inch, tuple(self.pos), tuple(self.offset), self.feed)
+    def record(self, table: StateTable, row: int) -> None:
+        table.put(row, self.motion, self.absolute, self.inch, self.pos, self.offset, self.feed)
 
     def fail(self, lineno: int, message: str) -> GCodeError:
         return GCodeError(self.src, lineno, message)
@@ -318,19 +276,79 @@ class _Interpreter:
             raise self.fail(lineno, str(exc)) from None
         self._emit(pts, Motion.ARC, lineno)
 
-    def _emit(self, pts: np.ndarray, kind: Motion, lineno: int) -> None:
-        self.total += len(pts)
-        if self.total > MAX_POINTS:
-            raise self.fail(lineno, f"the program expands to more than {MAX_POINTS:,} points (arcs at a chord "
-                                    f"tolerance of {self.opt.chord_tolerance:g} mm included)")
+    def _emit(self, pts: np.ndarray, kind: Motion | np.ndarray, lineno: int | np.ndarray) -> None:
+        count = len(pts)
+        if self.total + count > MAX_POINTS:
+            at = MAX_POINTS - self.total
+            line = int(lineno if np.isscalar(lineno) else lineno[at])
+            raise self.fail(line, f"the program expands to more than {MAX_POINTS:,} points (arcs at a chord "
+                                  f"tolerance of {self.opt.chord_tolerance:g} mm included)")
+        self.total += count
         self.points.append(pts)
-        self.counts.append(len(pts))
-        self.kinds.append(int(kind))
-        self.point_lines.append(lineno)
+        self.kinds.append(np.broadcast_to(np.int8(kind), (count,)) if np.isscalar(kind) else kind.astype(np.int8))
+        self.point_lines.append(np.broadcast_to(np.int32(lineno), (count,)) if np.isscalar(lineno)
+                                else lineno.astype(np.int32))
+
+    def run_plain(self, lines: Scan, first: int, stop: int, table: StateTable) -> None:
+        """Run plain lines ``first .. stop - 1`` (0-based, :mod:`toolpath.gcode.scanner`) at once: the
+        same arithmetic, in the same order, as :meth:`run_block` does line by line."""
+        values = lines.values[:, first:stop]
+        count = stop - first
+        index = np.arange(count)
+        g = values[0]
+        absent = np.isnan(values[1:4])
+        has_axis = ~(absent[0] & absent[1] & absent[2])
+        if self.motion not in (0, 1):  # G2/G3 or no motion mode: a line moving before any G0/G1 is an error
+            before_g = index < (np.flatnonzero(~np.isnan(g))[0] if (~np.isnan(g)).any() else count)
+            if (has_axis & before_g).any():
+                bad = first + int(np.flatnonzero(has_axis & before_g)[0])
+                body = self.text[lines.starts[bad]:lines.body_ends[bad]]
+                self.run_block(tokenize(body, self.src, bad + 1, self.params), bad + 1)
+        last_g = np.maximum.accumulate(np.where(np.isnan(g), -1, index))
+        motion = np.where(last_g >= 0, g[np.maximum(last_g, 0)], -1 if self.motion is None else self.motion)
+        scale = MM_PER_INCH if self.inch else 1.0
+        position = np.empty((3, count))
+        for i in range(3):
+            v = values[1 + i]
+            if self.absolute:
+                if not absent[i].any():
+                    position[i] = v * scale + self.offset[i]
+                elif absent[i].all():
+                    position[i] = self.pos[i]
+                else:
+                    target = v * scale + self.offset[i]
+                    last = np.maximum.accumulate(np.where(absent[i], -1, index))
+                    position[i] = target[np.maximum(last, 0)]
+                    position[i, last < 0] = self.pos[i]
+            else:
+                steps = np.concatenate([[self.pos[i]], np.where(absent[i], 0.0, v * scale)])
+                position[i] = np.add.accumulate(steps)[1:]
+        f = values[4] * scale
+        last_f = np.maximum.accumulate(np.where(np.isnan(f), -1, index))
+        feed = f[np.maximum(last_f, 0)]
+        feed[last_f < 0] = np.nan if self.feed is None else self.feed
+        moving = np.flatnonzero(has_axis)
+        if len(moving):
+            kinds = np.where(motion[moving] == 0, Motion.RAPID, Motion.FEED)
+            points = position.T if len(moving) == count else position[:, moving].T
+            self._emit(np.ascontiguousarray(points), kinds, moving + first + 1)
+        rows = slice(first + 1, stop + 1)
+        table.motion[rows], table.position[rows], table.feed[rows] = motion, position.T, feed
+        table.absolute[rows], table.inch[rows] = self.absolute, self.inch
+        table.offset_id[rows] = table.offset_index(self.offset)
+        self.pos = position[:, -1].copy()
+        self.motion = None if motion[-1] < 0 else int(motion[-1])
+        self.feed = None if np.isnan(feed[-1]) else float(feed[-1])
+        self.started = self.started or bool(lines.words[first:stop].any())
 
 
-def read_text(text: str, source: str = "<string>", options: ReaderOptions | None = None) -> Program:
+def read_text(text: str, source: str = "<string>", options: ReaderOptions | None = None,
+              vectorise: bool = True) -> Program:
     """Interpret G-code text; see the module docstring for the dialect.
+
+    Plain motion lines (:mod:`toolpath.gcode.scanner`) run in vectorised runs, every other line
+    through the full interpreter; both give the same numbers, bit for bit (``vectorise=False`` runs
+    every line through the interpreter, which the tests compare against).
 
     Raises
     ------
@@ -338,27 +356,43 @@ def read_text(text: str, source: str = "<string>", options: ReaderOptions | None
         Naming ``source:line`` for malformed input and unsupported features.
     """
     interp = _Interpreter(source, options or ReaderOptions())
-    lines = split_lines(text)
-    states = [interp.state()]
-    for lineno, raw in enumerate(lines, start=1):
-        if not interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
-            body = raw.rstrip("\r\n")
-            if len(body) > MAX_LINE_LENGTH:
-                raise GCodeError(source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
-            block = tokenize(body[1:] if lineno == 1 and body.startswith("\ufeff") else body,  # a UTF-8 BOM
-                             source, lineno, interp.params)
-            interp.run_block(block, lineno)
-        states.append(interp.state())
+    lines = scan(text)
+    count = lines.count
+    states = StateTable(count + 1)
+    interp.record(states, 0)
+    interp.text = text
+    plain = lines.fast if vectorise else np.zeros(count, bool)  # '/', '%', comments, '#': never plain
+    edges = np.flatnonzero(np.diff(plain.astype(np.int8))) + 1
+    bounds = [0, *edges.tolist(), count] if count else [0]
+    for first, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        if interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
+            states.fill(first + 1, count + 1, first)
+            break
+        if plain[first]:
+            interp.run_plain(lines, first, stop, states)
+            continue
+        for index in range(first, stop):
+            if not interp.ended:
+                body = text[lines.starts[index]:lines.body_ends[index]]
+                lineno = index + 1
+                if len(body) > MAX_LINE_LENGTH:
+                    raise GCodeError(source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
+                block = tokenize(body[1:] if lineno == 1 and body.startswith("\ufeff") else body,  # a UTF-8 BOM
+                                 source, lineno, interp.params)
+                interp.run_block(block, lineno)
+            interp.record(states, index + 1)
     pts = np.concatenate(interp.points).astype(float) if interp.points else np.zeros((0, 3))
     units = {frozenset(): "mm (no unit word)", frozenset({"mm"}): "mm", frozenset({"inch"}): "inch"}
     return Program(
         source=source,
-        lines=lines,
+        lines=Lines(text, lines.starts),
         points=pts,
-        kinds=np.repeat(np.array(interp.kinds, dtype=np.int8), interp.counts),
-        lines_of_points=np.repeat(np.array(interp.point_lines, dtype=np.int32), interp.counts),
+        kinds=np.concatenate(interp.kinds) if interp.kinds else np.zeros(0, np.int8),
+        lines_of_points=np.concatenate(interp.point_lines) if interp.point_lines else np.zeros(0, np.int32),
         units=units.get(frozenset(interp.units_seen), "mixed inch/mm"),
         states=states,
+        plain=plain,
+        xy_decimals=lines.decimals,
     )
 
 

@@ -1,0 +1,143 @@
+"""What reading a program gives: its lines, the tool positions its motion reaches, and the modal state
+after every line, held in columns (a million-line program is a few arrays, not a million objects)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+
+class Motion(IntEnum):
+    """Motion kind of the move that arrives at a point."""
+
+    RAPID = 0
+    FEED = 1
+    ARC = 2
+
+
+@dataclass
+class LineState:
+    """Modal state after one line, for the writer to replace motion faithfully."""
+
+    motion: int | None
+    absolute: bool
+    inch: bool
+    position: tuple[float, float, float]
+    offset: tuple[float, float, float]
+    feed: float | None
+
+
+class StateTable(Sequence):
+    """The modal state after every line (row 0: before the first line), one array per field.
+
+    ``motion`` is -1 where no motion mode is in effect (after G80), ``feed`` NaN before any F word;
+    ``offset_id`` indexes ``offsets``, the G92 offsets the program used (they change rarely).
+    Indexing gives a :class:`LineState` with ``None`` for those.
+    """
+
+    def __init__(self, rows: int) -> None:
+        self.motion = np.full(rows, -1, np.int8)
+        self.absolute = np.ones(rows, bool)
+        self.inch = np.zeros(rows, bool)
+        self.position = np.zeros((rows, 3))
+        self.offset_id = np.zeros(rows, np.int32)
+        self.offsets: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]
+        self.feed = np.full(rows, np.nan)
+
+    def __len__(self) -> int:
+        return len(self.motion)
+
+    def __getitem__(self, row):  # noqa: ANN001 - an int or a slice, as any sequence
+        if isinstance(row, slice):
+            return [self[k] for k in range(*row.indices(len(self)))]
+        motion, feed = int(self.motion[row]), float(self.feed[row])
+        return LineState(None if motion < 0 else motion, bool(self.absolute[row]), bool(self.inch[row]),
+                         tuple(float(v) for v in self.position[row]), self.offsets[self.offset_id[row]],
+                         None if np.isnan(feed) else feed)
+
+    @property
+    def offset(self) -> np.ndarray:
+        """(rows, 3) G92 offset after every line."""
+        return np.asarray(self.offsets)[self.offset_id]
+
+    def offset_index(self, offset) -> int:  # noqa: ANN001 - any 3 numbers
+        key = tuple(float(v) for v in offset)
+        if key != self.offsets[-1]:
+            self.offsets.append(key)
+        return len(self.offsets) - 1
+
+    def put(self, row: int, motion: int | None, absolute: bool, inch: bool, position, offset, feed) -> None:
+        self.motion[row] = -1 if motion is None else motion
+        self.absolute[row], self.inch[row] = absolute, inch
+        self.position[row] = position
+        self.offset_id[row] = self.offset_index(offset)
+        self.feed[row] = np.nan if feed is None else feed
+
+    def fill(self, first: int, stop: int, row: int) -> None:
+        """Rows ``first .. stop - 1`` become copies of row ``row``."""
+        for column in (self.motion, self.absolute, self.inch, self.position, self.offset_id, self.feed):
+            column[first:stop] = column[row]
+
+
+class Lines(Sequence):
+    """A program's lines, each with its own ending, as slices of its text (no string per line is kept)."""
+
+    def __init__(self, text: str, starts: np.ndarray) -> None:
+        self.text = text
+        self.starts = starts  # len(lines) + 1 offsets; the last is len(text)
+
+    def __len__(self) -> int:
+        return len(self.starts) - 1
+
+    def __getitem__(self, index):  # noqa: ANN001 - an int or a slice, as any sequence
+        if isinstance(index, slice):
+            return [self[k] for k in range(*index.indices(len(self)))]
+        if index < 0:
+            index += len(self)
+        if not 0 <= index < len(self):
+            raise IndexError("line index out of range")
+        return self.text[self.starts[index]:self.starts[index + 1]]
+
+    def __iter__(self) -> Iterator[str]:
+        text, starts = self.text, self.starts.tolist()
+        return (text[a:b] for a, b in zip(starts[:-1], starts[1:], strict=True))
+
+    def joined(self, replacements: dict[int, str]) -> str:
+        """The text with line ``k`` (1-based) replaced by ``replacements[k]``; other lines untouched."""
+        out, at = [], 0
+        for lineno in sorted(replacements):
+            out.append(self.text[at:self.starts[lineno - 1]])
+            out.append(replacements[lineno])
+            at = int(self.starts[lineno])
+        out.append(self.text[at:])
+        return "".join(out)
+
+
+@dataclass
+class Program:
+    """A read program: its raw lines and the tool positions its motion reaches.
+
+    ``points`` (n, 3) are in mm in the frame of the program's start (G92 shifts applied);
+    ``kinds`` holds :class:`Motion` values; ``lines_of_points`` the 1-based source line of each.
+    ``states[k]`` is the modal state after line ``k`` (``states[0]``: before the first line).
+    ``plain[k - 1]`` is True when line ``k`` is a plain ``G0/G1 X Y Z F N`` line
+    (:mod:`toolpath.gcode.scanner`), and ``xy_decimals[k - 1]`` the decimals of its X / Y numbers.
+    """
+
+    source: str
+    lines: Sequence[str]
+    points: np.ndarray
+    kinds: np.ndarray
+    lines_of_points: np.ndarray
+    units: str
+    states: StateTable = field(repr=False)
+    plain: np.ndarray | None = field(default=None, repr=False)
+    xy_decimals: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def feed_mask(self) -> np.ndarray:
+        """True where a point is reached by cutting motion (G1, G2, G3)."""
+        return self.kinds != Motion.RAPID
