@@ -4,9 +4,9 @@ Run: ``python -m toolpath.bench --only gcode`` (part of ``make bench``) -> ``rep
 
 A G01-dense program as CAM posts write it (``G1 X.. Y..`` lines, a feed word now and then, light
 noise so some windows are rough) is written once; every reader then runs on it in its own fresh
-process, one after another in one benchmark run, and reports lines per second and its peak resident
-memory.  What each one does differs, and the JSON says so: ``gcodeparser`` splits lines into words
-(no modal state, no positions), ``pygcode`` parses and runs its machine model (positions),
+process, one after another in one benchmark run, and reports lines per second (the median of
+:data:`REPEATS` runs in that process) and its peak resident memory.  What each one does differs,
+and the JSON says so: ``gcodeparser`` splits lines into words (no modal state, no positions), ``pygcode`` parses and runs its machine model (positions),
 :func:`toolpath.gcode.read_text` interprets to positions with the modal state of every line (what
 ``toolpath smooth`` needs).  ``pygcode`` is slow enough that it reads a 20,000-line slice;
 ``toolpath smooth`` runs on programs of :data:`SMOOTH_LINES` lines (NACOA on every rough window of
@@ -23,24 +23,27 @@ from pathlib import Path
 
 import numpy as np
 
-# each runner prints {"seconds": s, "lines": n, "peak_rss_mb": m}; run as `python -c` in a fresh process
+# each runner defines work() -> lines read, timed REPEATS times in one fresh process (median reported), and prints
+# {"seconds": s, "runs": [...], "lines": n, "peak_rss_mb": m}; run as `python -c`
+REPEATS = 3
 _PRELUDE = "import json, sys, time\npath, limit = sys.argv[1], int(sys.argv[2])\n"
 # VmHWM, not ru_maxrss: Linux carries ru_maxrss over exec from the forked parent (the benchmark holds torch)
-_FOOTER = ("seconds = time.perf_counter() - t0\n"
+_FOOTER = (f"runs = []\nfor _ in range({REPEATS}):\n"
+           "    t0 = time.perf_counter()\n    n = work()\n    runs.append(time.perf_counter() - t0)\n"
+           "seconds = sorted(runs)[len(runs) // 2]\n"
            "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].split()[1]\n"
-           "print(json.dumps({'seconds': seconds, 'lines': n, 'peak_rss_mb': int(hwm) / 1024}))\n")
+           "print(json.dumps({'seconds': seconds, 'runs': runs, 'lines': n, 'peak_rss_mb': int(hwm) / 1024}))\n")
 RUNNERS = {
     "toolpath.gcode": ("interprets to positions and per-line modal state",
-                       "from toolpath.gcode import read_text\n"
-                       "text = open(path).read()\nt0 = time.perf_counter()\np = read_text(text)\nn = len(p.lines)\n"),
+                       "from toolpath.gcode import read_text\ntext = open(path).read()\n"
+                       "def work():\n    return len(read_text(text).lines)\n"),
     "gcodeparser": ("splits lines into words: no modal state, no positions",
-                    "from gcodeparser import GcodeParser\n"
-                    "text = open(path).read()\nt0 = time.perf_counter()\n"
-                    "n = len(text.splitlines())\nGcodeParser(text)\n"),
+                    "from gcodeparser import GcodeParser\ntext = open(path).read()\n"
+                    "def work():\n    GcodeParser(text)\n    return len(text.splitlines())\n"),
     "pygcode": ("parses each line and runs its machine model (positions)",
-                "from pygcode import Line, Machine\n"
-                "lines = open(path).read().splitlines()[:limit]\nt0 = time.perf_counter()\nm = Machine()\n"
-                "for text in lines:\n    m.process_block(Line(text).block)\nn = len(lines)\n"),
+                "from pygcode import Line, Machine\nlines = open(path).read().splitlines()[:limit]\n"
+                "def work():\n    m = Machine()\n    for text in lines:\n        m.process_block(Line(text).block)\n"
+                "    return len(lines)\n"),
 }
 PYGCODE_LINES = 20_000
 SMOOTH_LINES = {"mean": 50_000, "dispatch": 5_000}  # programs `toolpath smooth` runs on, per --method
@@ -69,14 +72,14 @@ def _run(code: str, path: Path, limit: int) -> dict:
 
 def _smooth(path: Path, method: str) -> dict:
     """``toolpath smooth`` end to end (start-up excluded: timed inside the process)."""
-    code = ("from toolpath.cli.smooth import main\nimport os\nout = path + '.out'\n"
-            "t0 = time.perf_counter()\n"
-            f"code = main([path, '-o', out, '--force', '--method', {method!r}])\n"
-            "n = sum(1 for _ in open(path))\nassert code == 0\n")
+    code = ("from toolpath.cli.smooth import main\nout = path + '.out'\n"
+            "def work():\n"
+            f"    assert main([path, '-o', out, '--force', '--method', {method!r}]) == 0\n"
+            "    return sum(1 for _ in open(path))\n")
     return _run(code, path, 0)
 
 
-def measure(lines: int = 200_000, seed: int = 0) -> dict:
+def measure(lines: int = 1_000_000, seed: int = 0) -> dict:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "dense.nc"
         path.write_text(dense_program(lines, seed))

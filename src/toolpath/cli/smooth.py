@@ -106,11 +106,11 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 def classifier(spec: str, runtime: str = "onnxruntime"):
     """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
-    if spec == "rule":
-        from toolpath.models.rule import LocalCurvatureRule
+    if spec == "rule":  # Eq. 3 and Table 1 directly: the rule's estimator needs scikit-learn and torch to import
+        from toolpath.geometry.curvature import local_curvature
+        from toolpath.labels.windows import categorize
 
-        rule = LocalCurvatureRule()
-        return rule.predict
+        return lambda X: categorize(local_curvature(np.asarray(X, np.float64))).astype(np.int64)
     path = Path(spec)
     if not path.is_file():
         raise UsageError(f"{spec}: no such model file (or say --classifier rule)")
@@ -153,17 +153,17 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
 
 def machining_time(runs_before: list[np.ndarray], runs_after: list[np.ndarray]) -> tuple:
     """Seconds the feed planner needs for every feed run before and after, under :data:`MACHINE`
-    (a run the rewrite left alone is planned once); (None, None, why) when a run cannot be planned."""
-    from toolpath.feedrate import Machine, plan, polyline_radius
+    (:func:`toolpath.feedrate.timing.machining_time`; a run the rewrite left alone is planned once);
+    (None, None, why) when a run cannot be planned."""
+    from toolpath.feedrate import Machine
+    from toolpath.feedrate.timing import machining_time as seconds
 
     machine, before, after = Machine(**MACHINE), 0.0, 0.0
     try:
         for old, new in zip(runs_before, runs_after, strict=True):
-            if len(old) < 2:
-                continue
-            t = plan(old, polyline_radius(old, BLEND_TOLERANCE), machine).time
+            t = seconds(old, machine, BLEND_TOLERANCE)
             before += t
-            after += t if np.array_equal(old, new) else plan(new, polyline_radius(new, BLEND_TOLERANCE), machine).time
+            after += t if np.array_equal(old, new) else seconds(new, machine, BLEND_TOLERANCE)
     except ValueError as exc:
         return None, None, str(exc)
     return before, after, None

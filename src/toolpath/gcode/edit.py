@@ -80,13 +80,12 @@ def movable_lines(program: Program) -> np.ndarray:
     counts = np.bincount(program.lines_of_points, minlength=len(program.lines) + 1)[1:]
     last_kind = np.full(len(program.lines) + 1, -1)
     last_kind[program.lines_of_points] = program.kinds
-    ok = (counts == 1) & (last_kind[1:] == Motion.FEED)
-    for index in np.flatnonzero(ok):
+    z = program.states.position[:, 2]
+    ok = (counts == 1) & (last_kind[1:] == Motion.FEED) & (z[1:] == z[:-1])  # a ramp: its XY is not all it does
+    plain = program.plain if program.plain is not None else np.zeros(len(ok), bool)
+    # a plain line (G0/G1 X Y Z F N, plain numbers) that feeds to one point qualifies as it is
+    for index in np.flatnonzero(ok & ~plain):
         lineno = index + 1
-        before, after = program.states[lineno - 1], program.states[lineno]
-        if after.position[2] != before.position[2]:  # a ramp: its XY is not all it does
-            ok[index] = False
-            continue
         raw = program.lines[index].rstrip("\r\n")
         if any(c in raw[lo:hi] for lo, hi in _code_spans(raw) for c in "#["):
             ok[index] = False  # X/Y/Z or F from parameters: substituting a number would cut the link
@@ -136,6 +135,6 @@ def substitute_xy(line: str, values: dict[str, str]) -> str:
 
 def program_coordinates(program: Program, lineno: int, xy_mm: np.ndarray) -> np.ndarray:
     """A point (mm, reader frame) as the X/Y numbers line ``lineno`` would write in absolute mode."""
-    state = program.states[lineno - 1]
-    scale = MM_PER_INCH if state.inch else 1.0
-    return (np.asarray(xy_mm, float) - np.asarray(state.offset[:2])) / scale
+    row = lineno - 1
+    scale = MM_PER_INCH if program.states.inch[row] else 1.0
+    return (np.asarray(xy_mm, float) - np.asarray(program.states.offsets[program.states.offset_id[row]][:2])) / scale

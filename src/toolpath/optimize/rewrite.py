@@ -80,16 +80,19 @@ def _stretches(lines: np.ndarray, movable: np.ndarray, quiet: np.ndarray, progra
     """Maximal point ranges ``[a, b]`` inside window points ``first..last`` whose interior points each
     sit on their own movable line, with nothing between their lines that moves the tool or changes a
     mode; the stretch's end point is fixed and its line must be a G1 stating X and Y (:func:`_closes`)."""
-    if not program.states[int(lines[first])].absolute:
+    if not program.states.absolute[int(lines[first])]:
         return [], "incremental (G91) moves are kept as they are"
 
     def gap_ok(k: int) -> bool:  # nothing happens on the lines strictly between points k - 1 and k
         lo, hi = int(lines[k - 1]), int(lines[k])
         return lo < hi and quiet[hi - 1] - quiet[lo] == 0
 
+    lo, hi = lines[first:last + 1][:-1].astype(np.int64), lines[first:last + 1][1:].astype(np.int64)
+    gap = np.zeros(last + 2, bool)  # gap[k]: nothing happens strictly between points k - 1 and k
+    gap[first + 1:last + 1] = (lo < hi) & (quiet[hi - 1] - quiet[lo] == 0)
     free = np.zeros(last + 1, bool)
-    for k in range(first + 1, last):
-        free[k] = bool(movable[int(lines[k]) - 1]) and gap_ok(k) and gap_ok(k + 1)
+    inner = np.arange(first + 1, last)
+    free[inner] = movable[lines[inner].astype(np.int64) - 1] & gap[inner] & gap[inner + 1]
     out, k, reason = [], first, "no movable G1 lines (arcs, Z moves or words the rewrite does not own)"
     while k < last:
         if not free[k + 1]:
@@ -114,9 +117,9 @@ def _quiet_prefix(program: Program) -> np.ndarray:
     """Cumulative count of lines that move the tool or change absolute / units / offsets (index = line)."""
     counts = np.bincount(program.lines_of_points, minlength=len(program.lines) + 1)
     busy = counts > 0
-    for line in range(1, len(program.lines) + 1):
-        s, r = program.states[line], program.states[line - 1]
-        busy[line] |= (s.absolute, s.inch, s.offset) != (r.absolute, r.inch, r.offset)
+    states = program.states
+    busy[1:] |= ((states.absolute[1:] != states.absolute[:-1]) | (states.inch[1:] != states.inch[:-1])
+                 | (states.offset_id[1:] != states.offset_id[:-1]))
     return np.cumsum(busy)
 
 
@@ -129,16 +132,18 @@ def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) ->
 
 def line_decimals(program: Program, line: int) -> int:
     """Decimals a moved point is written with: the line's own, at least the default of its units."""
+    default = DEFAULT_DECIMALS[bool(program.states.inch[line - 1])]
+    if program.plain is not None and program.plain[line - 1]:
+        return max(int(program.xy_decimals[line - 1].max()), default)
     words = axis_words(program.lines[line - 1].rstrip("\r\n"))
-    return max([w.decimals for w in words.values()] + [DEFAULT_DECIMALS[program.states[line - 1].inch]])
+    return max([w.decimals for w in words.values()] + [default])
 
 
 def rounding_margin(program: Program, lines: np.ndarray) -> float:
     """The most that writing a point at its line's precision moves it, in mm."""
     worst = 0.0
     for line in lines:
-        state = program.states[int(line) - 1]
-        scale = MM_PER_INCH if state.inch else 1.0
+        scale = MM_PER_INCH if program.states.inch[int(line) - 1] else 1.0
         worst = max(worst, 0.5 * 10.0 ** -line_decimals(program, int(line)) * scale * np.sqrt(2.0))
     return worst
 

@@ -1,0 +1,128 @@
+"""The machining time of a G01 path under the interval planner (:mod:`toolpath.feedrate.planner`),
+in NumPy: for whole programs, where the planner's sampled profile and its interval-by-interval
+Python loops (a minute for 20,000 points) are more than a time estimate needs.
+
+Same model, same constraints: vertex intervals (choice 1), ramps inside the faster of two
+intervals (choice 2), speeds lowered by bisection until the ramps fit (choice 3), S-curve ramps
+(choice 4).  Two differences in procedure, not in model: the odd intervals whose ramps do not fit are
+lowered at once, then the even ones, and these rounds repeat over the intervals next to a change
+until every ramp fits (the planner sweeps them one by one), its
+bisection starting from the slower neighbour's speed and stopping at a relative width of 1e-12
+(the planner's runs 80 steps from 0); and the time
+is summed from the ramp and cruise durations instead of a profile sampled every period.  A test
+checks the two agree: to 1e-10 on smooth and lightly rough paths, to 1e-5 where noise larger than
+the segments makes the lowering cascade (the two procedures then settle a few ulps apart per step).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from toolpath.feedrate.limits import Machine, feed_limit, polyline_radius
+from toolpath.feedrate.planner import arc_length
+
+BISECTION_STEPS = 80  # at most, as the planner's
+RESOLUTION = 1e-12  # relative: a bisection stops once every bracket is this narrow
+
+
+def ramp_time(v0: np.ndarray, v1: np.ndarray, acceleration: float, jerk: float) -> np.ndarray:
+    """Duration of the S-curve from ``v0`` to ``v1`` (:func:`toolpath.feedrate.scurve.ramp_time`)."""
+    dv = np.abs(v1 - v0)
+    full = dv >= acceleration * acceleration / jerk
+    return np.where(full, acceleration / jerk + dv / acceleration, 2.0 * np.sqrt(np.where(full, 0.0, dv) / jerk))
+
+
+def ramp_distance(v0: np.ndarray, v1: np.ndarray, acceleration: float, jerk: float) -> np.ndarray:
+    return 0.5 * (v0 + v1) * ramp_time(v0, v1, acceleration, jerk)
+
+
+def vertex_intervals(s: np.ndarray, limit: np.ndarray, feed: float) -> tuple[np.ndarray, ...]:
+    """(start, end, speed limit, sensitive) of the intervals of a G01 path (the planner's
+    ``_vertex_intervals``): each vertex whose limit lies below the feed is an interval of its own,
+    everything between them one non-sensitive interval at the feed."""
+    n = len(s)
+    vertex = limit < feed
+    segment = np.zeros(n, bool)
+    segment[:-1] = s[1:] > s[:-1]
+    # items in path order: vertex 0, segment 0, vertex 1, ...; segments of zero length dropped
+    start = np.stack([s, s], axis=1).ravel()
+    end = np.stack([s, np.append(s[1:], s[-1])], axis=1).ravel()
+    sensitive = np.stack([vertex, np.zeros(n, bool)], axis=1).ravel()
+    speed = np.stack([np.where(vertex, limit, feed), np.full(n, feed)], axis=1).ravel()
+    keep = np.stack([np.ones(n, bool), segment], axis=1).ravel()
+    start, end, sensitive, speed = start[keep], end[keep], sensitive[keep], speed[keep]
+    # consecutive non-sensitive items merge into one interval
+    opens = np.ones(len(start), bool)
+    opens[1:] = sensitive[1:] | sensitive[:-1]
+    first = np.flatnonzero(opens)
+    last = np.append(first[1:], len(start)) - 1
+    return start[first], end[last], speed[first], sensitive[first]
+
+
+def fit_speeds(lengths: np.ndarray, limits: np.ndarray, machine: Machine) -> np.ndarray:
+    """Interval speeds <= limits whose ramps to slower neighbours fit inside them (choices 2-3)."""
+    A, J = machine.tangential_acceleration, machine.tangential_jerk
+    speeds = np.concatenate([[0.0], limits, [0.0]])  # the path starts and ends at rest
+    room = np.concatenate([[0.0], lengths, [0.0]])
+
+    def need(k: np.ndarray, v: np.ndarray) -> np.ndarray:
+        left, right = speeds[k - 1], speeds[k + 1]
+        return (np.where(left < v, ramp_distance(left, v, A, J), 0.0)
+                + np.where(right < v, ramp_distance(right, v, A, J), 0.0))
+
+    n = len(speeds)
+    active = np.zeros(n, bool)
+    active[1:-1] = True
+    while active.any():
+        for parity in (0, 1):  # odd and even intervals in turn: a change is seen by its neighbours at once
+            candidates = np.flatnonzero(active[parity::2]) * 2 + parity
+            active[candidates] = False
+            over = candidates[need(candidates, speeds[candidates]) > room[candidates] * (1 + 1e-12) + 1e-12]
+            if not len(over):
+                continue
+            # at the slower neighbour's speed no ramp is needed: the root lies above it
+            lo = np.minimum(np.minimum(speeds[over - 1], speeds[over + 1]), speeds[over])
+            hi = speeds[over].copy()
+            for _ in range(BISECTION_STEPS):
+                if not (hi - lo > RESOLUTION * hi).any():
+                    break
+                mid = 0.5 * (lo + hi)
+                fits = need(over, mid) <= room[over]
+                lo, hi = np.where(fits, mid, lo), np.where(fits, hi, mid)
+            speeds[over] = lo
+            active[over - 1] = active[over + 1] = True
+        active[0] = active[-1] = False
+    return speeds[1:-1]
+
+
+def machining_time(points: np.ndarray, machine: Machine, blend_tolerance: float) -> float:
+    """Seconds to run the G01 polyline ``points`` (N, 2) from rest to rest, corners blended within
+    ``blend_tolerance`` (:func:`toolpath.feedrate.polyline_radius`).
+
+    Raises
+    ------
+    ValueError
+        Where the feed limit is 0 over a stretch of positive length (a cusp), as the planner does.
+    """
+    points = np.asarray(points, float)
+    if len(points) < 2:
+        return 0.0
+    s = arc_length(points)
+    limit = feed_limit(polyline_radius(points, blend_tolerance), machine)
+    start, end, speed_limit, _ = vertex_intervals(s, limit, machine.feed)
+    lengths = end - start
+    v = fit_speeds(lengths, speed_limit, machine)
+    A, J = machine.tangential_acceleration, machine.tangential_jerk
+    before, after = np.concatenate([[0.0], v[:-1]]), np.concatenate([v[1:], [0.0]])
+    up, down = before < v, after < v
+    ramp_in = np.where(up, ramp_distance(before, v, A, J), 0.0)
+    ramp_out = np.where(down, ramp_distance(v, after, A, J), 0.0)
+    cruise = np.maximum(lengths - ramp_in - ramp_out, 0.0)
+    stuck = (cruise > 0) & (v <= 0)
+    if stuck.any():
+        k = int(np.flatnonzero(stuck)[0])
+        raise ValueError(f"feed limit 0 over {lengths[k]:.6g} mm from s = {start[k]:.6g} mm: the path has a cusp "
+                         "(radius of curvature 0) there and cannot be run")
+    seconds = (np.where(up, ramp_time(before, v, A, J), 0.0) + np.where(down, ramp_time(v, after, A, J), 0.0)
+               + np.where(cruise > 0, cruise / np.where(v > 0, v, 1.0), 0.0))
+    return float(np.sum(seconds))
