@@ -6,7 +6,8 @@ A G01-dense program as CAM posts write it (``G1 X.. Y..`` lines, a feed word now
 noise so some windows are rough) is written once; every reader then runs on it in its own fresh
 process, one after another in one benchmark run, and reports lines per second (the median of
 :data:`REPEATS` runs in that process) and its peak resident memory.  What each one does differs,
-and the JSON says so: ``gcodeparser`` splits lines into words (no modal state, no positions), ``pygcode`` parses and runs its machine model (positions),
+and the JSON says so: ``gcodeparser`` splits lines into words (no modal state, no positions),
+``pygcode`` parses and runs its machine model (positions),
 :func:`toolpath.gcode.read_text` interprets to positions with the modal state of every line (what
 ``toolpath smooth`` needs).  ``pygcode`` is slow enough that it reads a 20,000-line slice;
 ``toolpath smooth`` runs on programs of :data:`SMOOTH_LINES` lines (NACOA on every rough window of

@@ -7,10 +7,10 @@ intervals (choice 2), speeds lowered by bisection until the ramps fit (choice 3)
 (choice 4).  Two differences in procedure, not in model: the odd intervals whose ramps do not fit are
 lowered at once, then the even ones, and these rounds repeat over the intervals next to a change
 until every ramp fits (the planner sweeps them one by one), its
-bisection starting from the slower neighbour's speed and stopping at a relative width of 1e-12
+bisection starting from the slower neighbour's speed and stopping at a relative width of 1e-10
 (the planner's runs 80 steps from 0); and the time
 is summed from the ramp and cruise durations instead of a profile sampled every period.  A test
-checks the two agree: to 1e-10 on smooth and lightly rough paths, to 1e-5 where noise larger than
+checks the two agree: to 1e-8 on smooth and lightly rough paths, to 1e-5 where noise larger than
 the segments makes the lowering cascade (the two procedures then settle a few ulps apart per step).
 """
 
@@ -22,7 +22,7 @@ from toolpath.feedrate.limits import Machine, feed_limit, polyline_radius
 from toolpath.feedrate.planner import arc_length
 
 BISECTION_STEPS = 80  # at most, as the planner's
-RESOLUTION = 1e-12  # relative: a bisection stops once every bracket is this narrow
+RESOLUTION = 1e-10  # relative: a bisection stops once every bracket is this narrow (a time, not a profile)
 
 
 def ramp_time(v0: np.ndarray, v1: np.ndarray, acceleration: float, jerk: float) -> np.ndarray:
@@ -80,14 +80,16 @@ def fit_speeds(lengths: np.ndarray, limits: np.ndarray, machine: Machine) -> np.
             over = candidates[need(candidates, speeds[candidates]) > room[candidates] * (1 + 1e-12) + 1e-12]
             if not len(over):
                 continue
-            # at the slower neighbour's speed no ramp is needed: the root lies above it
-            lo = np.minimum(np.minimum(speeds[over - 1], speeds[over + 1]), speeds[over])
-            hi = speeds[over].copy()
+            left, right, space = speeds[over - 1], speeds[over + 1], room[over]
+            # at the slower neighbour's speed no ramp is needed: the root lies above it (and is it, without room)
+            lo = np.minimum(np.minimum(left, right), speeds[over])
+            hi = np.where(space > 0, speeds[over], lo)
             for _ in range(BISECTION_STEPS):
                 if not (hi - lo > RESOLUTION * hi).any():
                     break
                 mid = 0.5 * (lo + hi)
-                fits = need(over, mid) <= room[over]
+                fits = (np.where(left < mid, ramp_distance(left, mid, A, J), 0.0)
+                        + np.where(right < mid, ramp_distance(right, mid, A, J), 0.0)) <= space
                 lo, hi = np.where(fits, mid, lo), np.where(fits, hi, mid)
             speeds[over] = lo
             active[over - 1] = active[over + 1] = True
