@@ -18,6 +18,7 @@ and ``feedrate``), repeated here so the command runs outside the repository; a t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import tempfile
@@ -178,56 +179,61 @@ def _progress(items: list) -> list:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from toolpath.gcode import GCodeError, read_file
-    from toolpath.optimize.rewrite import RewriteOptions, smooth_program
+    from toolpath.gcode import GCodeError
+    from toolpath.optimize.rewrite import RewriteOptions
+    from toolpath.optimize.stream import Combined, smooth_parts
     from toolpath.reports.smooth_report import summary, write_plot, write_report
 
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
     output, backup = _paths(args)
     predict = classifier(args.classifier, args.runtime)
-    try:
-        program = read_file(args.input)
-        options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
-                                 mapping=DISPATCH, seed=args.seed)
-        result = smooth_program(program, predict, options, progress=_progress)
-        if args.arcs:
-            _weld(result, program, args.tolerance)
-    except GCodeError as exc:
-        raise InputError(str(exc)) from None
-    report = summary(args, program, result, machining_time(result.runs_before, result.runs_after), MACHINE)
-    data = result.text.encode("utf-8", errors="surrogateescape")  # undecodable bytes come back as they were
-    if backup is not None:
-        _atomic_write(backup, args.input.read_bytes())
-    _atomic_write(output, data)
+    options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
+                             mapping=DISPATCH, seed=args.seed)
+    drawn = args.plot is not None or (args.report is not None and args.report.suffix.lower() == ".html")
+    total = Combined(keep_paths=drawn)
+    with _atomic(output) as out:  # renamed into place only when every part is written
+        try:
+            for part in smooth_parts(args.input, predict, options, progress=_progress):
+                if args.arcs:
+                    _weld(part.result, part.program, args.tolerance, part.start)
+                out.write(part.result.text.encode("utf-8", errors="surrogateescape"))  # undecodable bytes kept
+                total.add(part, machining_time(part.result.runs_before, part.result.runs_after))
+        except GCodeError as exc:
+            raise InputError(str(exc)) from None
+        report = summary(args, total.lines, total, (total.before, total.after, total.why), MACHINE)
+        if backup is not None:
+            _atomic_write(backup, args.input.read_bytes())
     if args.report is not None:
-        write_report(args.report, report, result)
+        write_report(args.report, report, total)
     if args.plot is not None:
-        write_plot(args.plot, result)
+        write_plot(args.plot, total)
     return report
 
 
-def _weld(result, program, tolerance: float) -> None:
-    """``--arcs``: G1 runs of the smoothed program replaced by arcs (:mod:`toolpath.optimize.arc_weld`)."""
-    from toolpath.gcode import ReaderOptions, read_text
+def _weld(result, program, tolerance: float, start) -> None:
+    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.optimize.arc_weld`)."""
+    from toolpath.gcode import ReaderOptions
     from toolpath.labels.windows import feed_runs
     from toolpath.optimize.arc_weld import weld_arcs
 
-    smoothed = read_text(result.text, program.source)
-    text, arcs, lines, note = weld_arcs(smoothed, program, tolerance)
+    smoothed = start.snapshot().read(result.text)
+    text, arcs, lines, note = weld_arcs(smoothed, program, tolerance, start=start)
     result.text, result.arcs, result.arcs_note = text, arcs, note
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
-    coarse = ReaderOptions(chord_tolerance=BLEND_TOLERANCE)
-    result.runs_after = [xy for xy, _ in feed_runs(read_text(text, program.source, coarse))]
+    coarse = start.with_options(ReaderOptions(chord_tolerance=BLEND_TOLERANCE))
+    result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
     result.changed_lines = sorted(set(result.changed_lines) | set(lines))
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    """Write to a temporary file beside ``path``, then rename: a reader never sees half a program."""
+@contextlib.contextmanager
+def _atomic(path: Path):
+    """A file beside ``path`` to write, renamed to ``path`` when the block ends without an error:
+    a reader never sees half a program, and a failure leaves ``path`` as it was."""
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
         with os.fdopen(handle, "wb") as fh:
-            fh.write(data)
+            yield fh
         # mkstemp makes the file private (0600); give it the mode a plain new file would have
         umask = os.umask(0)
         os.umask(umask)
@@ -236,6 +242,11 @@ def _atomic_write(path: Path, data: bytes) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    with _atomic(path) as fh:
+        fh.write(data)
 
 
 def main(argv: list[str] | None = None) -> int:

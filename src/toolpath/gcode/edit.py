@@ -18,6 +18,7 @@ from toolpath.gcode.reader import MM_PER_INCH, Motion, Program
 
 # a plain number as the lexer reads it (blanks allowed after the letter and around the sign)
 _PLAIN = re.compile(r"\s*[+-]?\s*(\d+\.?\d*|\.\d+)")
+_AXIS_LETTER = re.compile(r"[XxYy]")
 
 
 @dataclass(frozen=True)
@@ -51,21 +52,17 @@ def _code_spans(line: str) -> list[tuple[int, int]]:
 def axis_words(line: str) -> dict[str, AxisWord]:
     """The X and Y words of a line whose numbers are plain (not ``#`` parameters or expressions)."""
     found: dict[str, AxisWord] = {}
-    if any(c in line[lo:hi] for lo, hi in _code_spans(line) for c in "#["):
+    spans = _code_spans(line) if "(" in line or ";" in line else [(0, len(line))]
+    if any(c in line[lo:hi] for lo, hi in spans for c in "#["):
         return {}  # values computed from parameters: the line is not ours to rewrite
-    for lo, hi in _code_spans(line):
-        i = lo
-        while i < hi:
-            letter = line[i].upper()
-            if letter in "XY":
-                match = _PLAIN.match(line, i + 1, hi)
-                if match is None:
-                    return {}  # X#1, X[...]: not a number we can rewrite
-                digits = match.group(1)
-                found[letter] = AxisWord(i, match.end(), len(digits.split(".")[1]) if "." in digits else 0)
-                i = match.end()
-                continue
-            i += 1
+    for lo, hi in spans:
+        for letter in _AXIS_LETTER.finditer(line, lo, hi):
+            i = letter.start()
+            match = _PLAIN.match(line, i + 1, hi)
+            if match is None:
+                return {}  # X#1, X[...]: not a number we can rewrite
+            digits = match.group(1)
+            found[letter.group().upper()] = AxisWord(i, match.end(), len(digits.split(".")[1]) if "." in digits else 0)
     return found
 
 

@@ -76,6 +76,23 @@ class StateTable(Sequence):
         self.offset_id[row] = self.offset_index(offset)
         self.feed[row] = np.nan if feed is None else feed
 
+    def rows(self, first: int, stop: int) -> StateTable:
+        """Rows ``first .. stop - 1`` as a table of their own."""
+        out = StateTable(0)
+        for name in ("motion", "absolute", "inch", "position", "offset_id", "feed"):
+            setattr(out, name, getattr(self, name)[first:stop])
+        out.offsets = self.offsets
+        return out
+
+    def then(self, other: StateTable) -> StateTable:
+        """This table and ``other``'s rows after its first (which repeats this one's last)."""
+        out = StateTable(0)
+        for name in ("motion", "absolute", "inch", "position", "feed"):
+            setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)[1:]]))
+        out.offsets = self.offsets + other.offsets
+        out.offset_id = np.concatenate([self.offset_id, other.offset_id[1:] + len(self.offsets)]).astype(np.int32)
+        return out
+
     def fill(self, first: int, stop: int, row: int) -> None:
         """Rows ``first .. stop - 1`` become copies of row ``row``."""
         for column in (self.motion, self.absolute, self.inch, self.position, self.offset_id, self.feed):
@@ -136,6 +153,36 @@ class Program:
     states: StateTable = field(repr=False)
     plain: np.ndarray | None = field(default=None, repr=False)
     xy_decimals: np.ndarray | None = field(default=None, repr=False)
+    first_line: int = 1  # where line 1 sits in the file, for a part of a program read in parts
+
+    def split(self, count: int) -> tuple[Program, Program]:
+        """(lines 1..count, the rest), each numbered from 1; the rest's ``states[0]`` is ``states[count]``."""
+        text, starts = self.lines.text, self.lines.starts
+        at = int(starts[count])
+        cut = int(np.searchsorted(self.lines_of_points, count, side="right"))
+        head = Program(self.source, Lines(text[:at], starts[:count + 1]), self.points[:cut], self.kinds[:cut],
+                       self.lines_of_points[:cut], self.units, self.states.rows(0, count + 1),
+                       None if self.plain is None else self.plain[:count],
+                       None if self.xy_decimals is None else self.xy_decimals[:count], self.first_line)
+        tail = Program(self.source, Lines(text[at:], starts[count:] - at), self.points[cut:], self.kinds[cut:],
+                       self.lines_of_points[cut:] - count, self.units, self.states.rows(count, len(self.states)),
+                       None if self.plain is None else self.plain[count:],
+                       None if self.xy_decimals is None else self.xy_decimals[count:], self.first_line + count)
+        return head, tail
+
+    def then(self, other: Program) -> Program:
+        """This part followed by the part read right after it (``other.states[0]`` is this one's last row)."""
+        shift = len(self.lines)
+        starts = np.concatenate([self.lines.starts, other.lines.starts[1:] + len(self.lines.text)])
+
+        def joined(a, b):  # noqa: ANN001, ANN202 - two optional arrays
+            return None if a is None or b is None else np.concatenate([a, b])
+
+        return Program(self.source, Lines(self.lines.text + other.lines.text, starts),
+                       np.concatenate([self.points, other.points]), np.concatenate([self.kinds, other.kinds]),
+                       np.concatenate([self.lines_of_points, other.lines_of_points + shift]).astype(np.int32),
+                       other.units, self.states.then(other.states), joined(self.plain, other.plain),
+                       joined(self.xy_decimals, other.xy_decimals), self.first_line)
 
     @property
     def feed_mask(self) -> np.ndarray:

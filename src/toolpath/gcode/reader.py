@@ -34,9 +34,9 @@ from toolpath.gcode.arcs import RADIUS_TOLERANCE, centre_arc_problem, centre_fro
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
-from toolpath.gcode.program import Lines, Motion, Program, StateTable
-from toolpath.gcode.scanner import Scan, scan
-from toolpath.gcode.text import MAX_LINE_LENGTH, read_bounded
+from toolpath.gcode.program import Motion, Program, StateTable
+from toolpath.gcode.scanner import Scan
+from toolpath.gcode.text import read_bounded
 
 MM_PER_INCH = 25.4
 # The most points one program may expand to (480 MB of coordinates): a program past it is refused by
@@ -93,7 +93,8 @@ class _Interpreter:
         self.ended = False
         self.started = False  # a line with words (or a '%') has been seen
         self.params = Parameters()
-        self.text = ""  # the program's text, for the lines run_plain hands to run_block
+        self.text = ""  # the text being read, for the lines run_plain hands to run_block
+        self.base = 0  # lines of the program before that text: line numbers are the program's
         # per emitted block: its points (k, 3), their kinds and lines, concatenated at the end
         self.points: list[np.ndarray] = []
         self.kinds: list[np.ndarray] = []
@@ -302,8 +303,8 @@ class _Interpreter:
             before_g = index < (np.flatnonzero(~np.isnan(g))[0] if (~np.isnan(g)).any() else count)
             if (has_axis & before_g).any():
                 bad = first + int(np.flatnonzero(has_axis & before_g)[0])
-                body = self.text[lines.starts[bad]:lines.body_ends[bad]]
-                self.run_block(tokenize(body, self.src, bad + 1, self.params), bad + 1)
+                body, lineno = self.text[lines.starts[bad]:lines.body_ends[bad]], bad + 1 + self.base
+                self.run_block(tokenize(body, self.src, lineno, self.params), lineno)
         last_g = np.maximum.accumulate(np.where(np.isnan(g), -1, index))
         motion = np.where(last_g >= 0, g[np.maximum(last_g, 0)], -1 if self.motion is None else self.motion)
         scale = MM_PER_INCH if self.inch else 1.0
@@ -331,7 +332,7 @@ class _Interpreter:
         if len(moving):
             kinds = np.where(motion[moving] == 0, Motion.RAPID, Motion.FEED)
             points = position.T if len(moving) == count else position[:, moving].T
-            self._emit(np.ascontiguousarray(points), kinds, moving + first + 1)
+            self._emit(np.ascontiguousarray(points), kinds, moving + first + 1 + self.base)
         rows = slice(first + 1, stop + 1)
         table.motion[rows], table.position[rows], table.feed[rows] = motion, position.T, feed
         table.absolute[rows], table.inch[rows] = self.absolute, self.inch
@@ -348,52 +349,17 @@ def read_text(text: str, source: str = "<string>", options: ReaderOptions | None
 
     Plain motion lines (:mod:`toolpath.gcode.scanner`) run in vectorised runs, every other line
     through the full interpreter; both give the same numbers, bit for bit (``vectorise=False`` runs
-    every line through the interpreter, which the tests compare against).
+    every line through the interpreter, which the tests compare against).  A program read in parts
+    is :class:`toolpath.gcode.reading.Reading`.
 
     Raises
     ------
     GCodeError
         Naming ``source:line`` for malformed input and unsupported features.
     """
-    interp = _Interpreter(source, options or ReaderOptions())
-    lines = scan(text)
-    count = lines.count
-    states = StateTable(count + 1)
-    interp.record(states, 0)
-    interp.text = text
-    plain = lines.fast if vectorise else np.zeros(count, bool)  # '/', '%', comments, '#': never plain
-    edges = np.flatnonzero(np.diff(plain.astype(np.int8))) + 1
-    bounds = [0, *edges.tolist(), count] if count else [0]
-    for first, stop in zip(bounds[:-1], bounds[1:], strict=True):
-        if interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
-            states.fill(first + 1, count + 1, first)
-            break
-        if plain[first]:
-            interp.run_plain(lines, first, stop, states)
-            continue
-        for index in range(first, stop):
-            if not interp.ended:
-                body = text[lines.starts[index]:lines.body_ends[index]]
-                lineno = index + 1
-                if len(body) > MAX_LINE_LENGTH:
-                    raise GCodeError(source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
-                block = tokenize(body[1:] if lineno == 1 and body.startswith("\ufeff") else body,  # a UTF-8 BOM
-                                 source, lineno, interp.params)
-                interp.run_block(block, lineno)
-            interp.record(states, index + 1)
-    pts = np.concatenate(interp.points).astype(float) if interp.points else np.zeros((0, 3))
-    units = {frozenset(): "mm (no unit word)", frozenset({"mm"}): "mm", frozenset({"inch"}): "inch"}
-    return Program(
-        source=source,
-        lines=Lines(text, lines.starts),
-        points=pts,
-        kinds=np.concatenate(interp.kinds) if interp.kinds else np.zeros(0, np.int8),
-        lines_of_points=np.concatenate(interp.point_lines) if interp.point_lines else np.zeros(0, np.int32),
-        units=units.get(frozenset(interp.units_seen), "mixed inch/mm"),
-        states=states,
-        plain=plain,
-        xy_decimals=lines.decimals,
-    )
+    from toolpath.gcode.reading import Reading
+
+    return Reading(source, options).read(text, vectorise)
 
 
 def read_file(path: str | Path, options: ReaderOptions | None = None) -> Program:

@@ -29,7 +29,8 @@ import numpy as np
 from toolpath.gcode.edit import movable_lines, program_coordinates
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.lexer import tokenize
-from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
+from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
+from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
@@ -134,11 +135,12 @@ def _has_feed(program: Program, line: int) -> bool:
                                                  line).words)
 
 
-def weld_arcs(current: Program, original: Program, tolerance: float,
-              read_options: ReaderOptions | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
+def weld_arcs(current: Program, original: Program, tolerance: float, read_options: ReaderOptions | None = None,
+              start: Reading | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
     """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
     replaced by arcs within ``tolerance`` of ``original``'s path; the arcs; the input lines changed or
-    removed; why no arc was tried (or None).
+    removed; why no arc was tried (or None).  ``start``: for a part of a program, the reading its
+    output is re-read from.
 
     Raises
     ------
@@ -170,7 +172,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float,
             i = q
     text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
     if records:
-        _verify(text, current, original, records, tolerance, read_options)
+        _verify(text, current, original, records, tolerance, read_options, start)
     return text, records, sorted(edits), None
 
 
@@ -212,9 +214,9 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
 
 
 def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,
-            read_options: ReaderOptions | None) -> None:
+            read_options: ReaderOptions | None, start: Reading | None) -> None:
     """Re-read the output: every point outside the arcs is where it was, every arc within the tolerance."""
-    final = read_text(text, current.source, read_options)
+    final = (start.snapshot() if start is not None else Reading(current.source, read_options)).read(text)
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
     for r in records:

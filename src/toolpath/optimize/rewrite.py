@@ -23,7 +23,8 @@ import numpy as np
 
 from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_xy
 from toolpath.gcode.errors import GCodeError
-from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions, read_text
+from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
+from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import hausdorff
@@ -156,8 +157,11 @@ def _method_for(category: int, options: RewriteOptions) -> str:
 
 def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
                    read_options: ReaderOptions | None = None,
-                   progress: Callable[[list], list] = lambda items: items) -> Rewrite:
+                   progress: Callable[[list], list] = lambda items: items, start: Reading | None = None) -> Rewrite:
     """Classify every window of ``program``'s feed runs and smooth the rough ones within the tolerance.
+
+    ``start``: for a part of a program (:mod:`toolpath.optimize.stream`), the reading its output is
+    re-read from (the modal state and parameters where the part begins).
 
     ``classify`` maps windows (N, window, 2) in mm, relative to their first point, to Table 1
     categories 1-4.  Raises :class:`GCodeError` when the tolerance is finer than the program's
@@ -173,12 +177,14 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
         if not count:
             continue
         starts = np.arange(count) * size
-        local = np.stack([xy[s:s + size] - xy[s] for s in starts])
+        windows = xy[:count * size].reshape(count, size, 2)
+        local = windows - windows[:, :1]
         categories = np.asarray(classify(local)).astype(int)
-        for s, category in zip(starts, categories, strict=True):
+        curvatures = local_curvature(local).tolist()
+        for s, category, curvature in zip(starts, categories, curvatures, strict=True):
             e = s + size - 1
             record = WindowRecord(r, int(lines[s]), int(lines[e]), int(category), _method_for(int(category), options),
-                                  float(local_curvature(xy[s:e + 1] - xy[s])))
+                                  curvature)
             records.append(record)
             if record.method == UNTOUCHED:
                 record.status = "smooth already"
@@ -204,14 +210,15 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             words = {"X": fmt(value[0], decimals), "Y": fmt(value[1], decimals)}
             edits[line] = substitute_xy(program.lines[line - 1], words)
         record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
-    text = "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
-    return _verify(program, text, runs, records, jobs, edits, options, read_options)
+    text = program.lines.joined(edits) if hasattr(program.lines, "joined") else \
+        "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
+    return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
 
 
-def _verify(program: Program, text: str, runs, records, jobs, edits, options, read_options) -> Rewrite:
+def _verify(program: Program, text: str, runs, records, jobs, edits, options, read_options, start) -> Rewrite:
     """Re-read the output: every point a kept line reaches is where it was, the moved points are
     taken from the re-read program, and every stretch is measured both ways against the original."""
-    reread = read_text(text, program.source, read_options)
+    reread = (start.snapshot() if start is not None else Reading(program.source, read_options)).read(text)
     moved_points = np.isin(program.lines_of_points, np.fromiter(edits, int, len(edits)))
     if reread.points.shape != program.points.shape or not np.array_equal(reread.points[~moved_points],
                                                                          program.points[~moved_points]):
@@ -235,11 +242,16 @@ def _verify(program: Program, text: str, runs, records, jobs, edits, options, re
                 raise GCodeError(program.source, int(runs[r][1][a + 1]), f"internal check failed: a smoothed "
                                  f"stretch lies {deviation:.6f} mm from the original, over {options.tolerance} mm")
             worst[id(record)] = max(worst.get(id(record), 0.0), deviation)
+    after: dict[int, list[float]] = {}  # per run, LocalCurvature of each window of the new path
+    size = options.window
+    for r, new in enumerate(new_runs):
+        count = len(new) // size
+        windows = new[:count * size].reshape(count, size, 2)
+        after[r] = local_curvature(windows - windows[:, :1]).tolist() if count else []
     counters: dict[int, int] = {}
     for record in records:
         record.deviation_mm = worst.get(id(record), 0.0)
         k = counters.get(record.run, 0)
         counters[record.run] = k + 1
-        window = new_runs[record.run][k * options.window:(k + 1) * options.window]
-        record.curvature_after = float(local_curvature(window - window[0]))
+        record.curvature_after = after[record.run][k]
     return Rewrite(text, records, [xy for xy, _ in runs], new_runs, sorted(edits))

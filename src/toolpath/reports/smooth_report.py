@@ -13,7 +13,7 @@ from pathlib import Path
 from toolpath.labels.windows import CATEGORY_NAMES
 
 
-def summary(args, program, result, times: tuple, machine: dict) -> dict:
+def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
     """Everything a machinist checks before running the new program."""
     before, after, why = times
     windows = result.windows
@@ -22,7 +22,7 @@ def summary(args, program, result, times: tuple, machine: dict) -> dict:
     return {
         "input": str(args.input), "output": str(args.input if args.in_place else args.output),
         "tolerance_mm": args.tolerance, "classifier": args.classifier, "method": args.method, "seed": args.seed,
-        "lines": len(program.lines), "lines_changed": len(result.changed_lines),
+        "lines": lines, "lines_changed": len(result.changed_lines),
         "windows": {"total": len(windows), "smoothed": statuses.get("smoothed", 0),
                     "smooth_already": statuses.get("smooth already", 0), "kept": statuses.get("kept", 0),
                     "per_category": {f"{c} {CATEGORY_NAMES[c - 1]}": sum(w.category == c for w in windows)

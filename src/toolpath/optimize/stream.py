@@ -1,0 +1,143 @@
+"""``toolpath smooth`` on a program of any length: read, smooth and hand back one part at a time.
+
+The file is read in parts of about :data:`PART_BYTES` (:func:`toolpath.gcode.reading.text_parts`),
+one interpreter carried through them.  A part is smoothed up to the last window boundary of the
+feed run still open at its end; the lines from there on wait and are read again with the next part,
+so every window is the window the whole program would have (the run's windows are counted from
+its start, 50 points each).  Memory is that of a part, whatever the length of the program.
+
+Where this cannot be exact, it says so here: a window boundary that falls inside an arc's chords
+waits from the arc's line on (the next windows start at the arc's first chord); lines that would
+wait but set a parameter, G28.1 / G30.1 or G90.1 / G91.1 do not wait (their effect could not be
+replayed), and the next part starts its windows afresh.  The machining time plans each part's feed
+runs from rest to rest, so a run longer than a part is timed in pieces, before and after alike.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from toolpath.gcode.program import Motion, Program
+from toolpath.gcode.reader import ReaderOptions
+from toolpath.gcode.reading import Reading, text_parts
+from toolpath.labels.windows import feed_runs
+from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
+
+PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
+# lines whose effect a resumed reading could not replay from the modal state of their row
+_STATEFUL = re.compile(r"#|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1")
+
+
+@dataclass
+class Part:
+    """One smoothed part: its program (lines numbered from 1, ``first_line`` in the file), the result
+    and the reading its output re-reads from."""
+
+    program: Program
+    result: Rewrite
+    start: Reading
+
+
+def _cut(program: Program, window: int) -> int:
+    """How many of the part's lines to smooth now: all but those from the first point of the open
+    run's unfinished window on (or all, where those lines cannot wait)."""
+    count = len(program.lines)
+    if not len(program.kinds) or program.kinds[-1] == Motion.RAPID:
+        return count  # no feed run open at the end
+    runs = feed_runs(program)
+    xy, lines = runs[-1]
+    complete = (len(xy) // window) * window
+    if complete == len(xy):
+        complete -= window  # let the last whole window wait too: the next part starts on one of its points
+    line = int(lines[max(complete, 0)])
+    rest = program.lines.text[program.lines.starts[line - 1]:]
+    if _STATEFUL.search(rest):
+        return count
+    return line - 1
+
+
+def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
+                 read_options: ReaderOptions | None = None, part_bytes: int = PART_BYTES,
+                 progress: Callable[[list], list] = lambda items: items) -> Iterator[Part]:
+    """Every part of the program at ``path``, smoothed (:func:`toolpath.optimize.rewrite.smooth_program`).
+
+    Raises
+    ------
+    GCodeError
+        Naming the file's line, for anything the reader refuses.
+    OSError
+        When the file cannot be read.
+    """
+    reading = Reading(str(path), read_options)
+    start = reading.snapshot()
+    waiting: Program | None = None
+    parts = text_parts(path, part_bytes)
+    text = next(parts, None)
+    while text is not None:
+        program = reading.read(text)
+        if waiting is not None:
+            program = waiting.then(program)
+        text = next(parts, None)
+        count = len(program.lines) if text is None else _cut(program, options.window)
+        head, waiting = program.split(count)
+        if count == 0:  # the whole part is one unfinished window: read on
+            continue
+        result = smooth_program(head, classify, options, read_options, progress, start=start)
+        yield Part(head, result, start)
+        start = reading.resume_at(waiting.states, 0, waiting.first_line - 1)
+
+
+@dataclass
+class Combined:
+    """The parts' results as one: windows and arcs numbered by the file's lines, runs numbered in order
+    (a run longer than a part counts once per part), the paths kept only where they are drawn."""
+
+    keep_paths: bool = False
+    lines: int = 0
+    runs: int = 0
+    before: float | None = 0.0
+    after: float | None = 0.0
+    why: str | None = None
+
+    def __post_init__(self) -> None:
+        self.windows: list = []
+        self.arcs: list | None = None
+        self.arcs_note: str | None = None
+        self.changed: list[np.ndarray] = []
+        self.runs_before: list[np.ndarray] = []
+        self.runs_after: list[np.ndarray] = []
+
+    @property
+    def changed_lines(self) -> np.ndarray:
+        return np.concatenate(self.changed) if self.changed else np.zeros(0, np.int64)
+
+    def add(self, part: Part, times: tuple) -> None:
+        """Take one part's result; ``times`` is its (before, after, why) machining time."""
+        from dataclasses import replace
+
+        shift, result = part.program.first_line - 1, part.result
+        for w in result.windows:
+            w.first_line, w.last_line, w.run = w.first_line + shift, w.last_line + shift, w.run + self.runs
+        self.windows.extend(result.windows)
+        if result.arcs is not None:
+            self.arcs = (self.arcs or []) + [replace(a, first_line=a.first_line + shift, last_line=a.last_line + shift)
+                                             for a in result.arcs]
+            self.arcs_note = self.arcs_note or result.arcs_note
+        self.changed.append(np.asarray(result.changed_lines, np.int64) + shift)
+        self.lines += len(part.program.lines)
+        self.runs += len(result.runs_before)
+        if self.keep_paths:
+            self.runs_before.extend(result.runs_before)
+            self.runs_after.extend(result.runs_after)
+        before, after, why = times
+        if why is not None or self.why is not None:
+            self.before = self.after = None
+            self.why = self.why or why
+        else:
+            self.before += before
+            self.after += after

@@ -1,0 +1,61 @@
+"""``toolpath smooth`` in parts: the same windows and the same bytes as smoothing the program whole."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from toolpath.cli.smooth import DISPATCH, SMOOTHING, classifier
+from toolpath.gcode import read_file
+from toolpath.optimize.rewrite import RewriteOptions
+from toolpath.optimize.stream import Combined, smooth_parts
+
+OPTIONS = RewriteOptions(tolerance=0.01, smoothing=SMOOTHING, method="mean_filter", mapping=DISPATCH, seed=0)
+
+
+def _program(points: int, seed: int = 0) -> str:
+    rng = np.random.default_rng(seed)
+    s = np.arange(points) * 0.2
+    x = 40 * np.cos(s / 30) + rng.normal(0, 0.002, points)
+    y = 40 * np.sin(s / 30) + np.where(rng.random(points) < 0.1, rng.normal(0, 0.1, points), 0)
+    body = [f"N{k} G1 X{a:.3f} Y{b:.3f}" + (" (note)" if k % 97 == 0 else "") for k, (a, b) in enumerate(zip(x, y))]
+    lift = ["G0 Z5", "G0 X40 Y0", "G1 Z-1 F300"]  # a second run after a rapid
+    return "\n".join(["G21 G90", "G0 X40 Y0", "G1 Z-1 F600", *body[:700], *lift, *body[700:], "G0 Z5", "M30"]) + "\n"
+
+
+def _smooth(path, part_bytes):
+    total, text = Combined(), []
+    for part in smooth_parts(path, classifier("rule"), OPTIONS, part_bytes=part_bytes):
+        text.append(part.result.text)
+        total.add(part, (0.0, 0.0, None))
+    return "".join(text), total
+
+
+def test_parts_give_the_bytes_and_windows_of_the_whole(tmp_path):
+    path = tmp_path / "in.nc"
+    path.write_text(_program(1500))
+    whole, one = _smooth(path, 1 << 30)
+    parted, many = _smooth(path, 2000)  # ~60 lines a part: every run crosses many parts
+    assert parted == whole
+    assert [(w.first_line, w.last_line, w.category, w.status) for w in many.windows] == \
+           [(w.first_line, w.last_line, w.category, w.status) for w in one.windows]
+    assert np.array_equal(many.changed_lines, one.changed_lines) and len(one.changed_lines) > 0
+    assert many.lines == one.lines == len(read_file(path).lines)
+
+
+def test_parameters_near_a_part_end_are_read_once_and_stay_within_tolerance(tmp_path):
+    # '#1 = [#1 + 1]' must not run twice: lines that set parameters never wait for the next part
+    lines = ["G21 G90", "#1 = 0", "G0 X0 Y0", "G1 Z-1 F300"]
+    rng = np.random.default_rng(1)
+    for k in range(400):
+        lines.append(f"G1 X{k * 0.2:.3f} Y{rng.normal(0, 0.02):.3f}")
+        if k % 30 == 0:
+            lines.append("#1 = [#1 + 1]")
+    lines += ["G1 X#1 Y0", "M30"]
+    path = tmp_path / "params.nc"
+    path.write_text("\n".join(lines) + "\n")
+    parted, many = _smooth(path, 3000)  # ~130 lines a part, each end near a parameter line
+    out = tmp_path / "out.nc"
+    out.write_text(parted)
+    before, after = read_file(path), read_file(out)
+    assert after.points[-1, 0] == before.points[-1, 0] == 14.0  # #1 counted to 14, once each
+    assert many.windows and max(w.deviation_mm for w in many.windows) <= 0.01
