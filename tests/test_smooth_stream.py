@@ -17,7 +17,8 @@ def _program(points: int, seed: int = 0) -> str:
     s = np.arange(points) * 0.2
     x = 40 * np.cos(s / 30) + rng.normal(0, 0.002, points)
     y = 40 * np.sin(s / 30) + np.where(rng.random(points) < 0.1, rng.normal(0, 0.1, points), 0)
-    body = [f"N{k} G1 X{a:.3f} Y{b:.3f}" + (" (note)" if k % 97 == 0 else "") for k, (a, b) in enumerate(zip(x, y))]
+    body = [f"N{k} G1 X{a:.3f} Y{b:.3f}" + (" (note)" if k % 97 == 0 else "")
+            for k, (a, b) in enumerate(zip(x, y, strict=True))]
     lift = ["G0 Z5", "G0 X40 Y0", "G1 Z-1 F300"]  # a second run after a rapid
     return "\n".join(["G21 G90", "G0 X40 Y0", "G1 Z-1 F600", *body[:700], *lift, *body[700:], "G0 Z5", "M30"]) + "\n"
 
