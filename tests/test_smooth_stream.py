@@ -60,3 +60,16 @@ def test_parameters_near_a_part_end_are_read_once_and_stay_within_tolerance(tmp_
     before, after = read_file(path), read_file(out)
     assert after.points[-1, 0] == before.points[-1, 0] == 14.0  # #1 counted to 14, once each
     assert many.windows and max(w.deviation_mm for w in many.windows) <= 0.01
+
+
+def test_a_nurbs_block_across_a_part_end_is_read_once(tmp_path):
+    lines = _program(600).splitlines()
+    block = ["G0 X40 Y0", "G6.2 P3 K0 X40 Y0", "K0 X40 Y20", "K0 X20 Y20", "K1", "K1", "K1", "G1 X20 Y10"]
+    path = tmp_path / "nurbs.nc"
+    path.write_text("\n".join(lines[:300] + block + lines[300:]) + "\n")
+    whole, one = _smooth(path, 1 << 30)
+    parted, many = _smooth(path, 1500)
+    out = tmp_path / "out.nc"
+    out.write_text(parted)
+    assert read_file(out).points.shape == read_file(path).points.shape
+    assert many.lines == one.lines and max(w.deviation_mm for w in many.windows) <= 0.01

@@ -9,6 +9,8 @@ from enum import IntEnum
 
 import numpy as np
 
+MM_PER_INCH = 25.4
+
 
 class Motion(IntEnum):
     """Motion kind of the move that arrives at a point."""

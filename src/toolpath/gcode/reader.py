@@ -5,7 +5,8 @@ Supported: LinuxCNC's numbered and named parameters and ``[ ]`` expressions
 G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
 and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
 block delete ``/``, tabs, LF, CRLF and lone-CR line ends and a UTF-8 BOM; G28/G30 returns to their
-stored positions (G28.1/G30.1 store them).  Work offsets (G54-G59), tool length offsets (G43/G49) and
+stored positions (G28.1/G30.1 store them); G6.2 NURBS blocks (:mod:`toolpath.gcode.nurbs`), discretised
+within the chord tolerance.  Work offsets (G54-G59), tool length offsets (G43/G49) and
 path-control modes (G61/G64) are accepted and do not move the XY path.  After M2 or M30 the
 program has ended, as on a controller: later lines are kept in ``Program.lines`` but not read; so
 after a ``%`` that closes the program (any ``%`` but a leading one).
@@ -18,7 +19,7 @@ the chord tolerance), a program of at most 20 million points (:data:`MAX_POINTS`
 whole numbers 0-199, G words have one decimal at most, an arc's P is a whole number >= 1.
 
 Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, O-words,
-NURBS/splines (G5.x, G6.2), cutter compensation (G41/G42), canned cycles (G73-G89), G53
+splines (G5.x), cutter compensation (G41/G42), canned cycles (G73-G89), G53
 and every malformed word.
 """
 
@@ -34,11 +35,11 @@ from toolpath.gcode.arcs import RADIUS_TOLERANCE, centre_arc_problem, centre_fro
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
-from toolpath.gcode.program import Motion, Program, StateTable
+from toolpath.gcode.nurbs import NurbsBlock, NurbsMotion
+from toolpath.gcode.program import MM_PER_INCH, Motion, Program, StateTable
 from toolpath.gcode.scanner import Scan
 from toolpath.gcode.text import read_bounded
 
-MM_PER_INCH = 25.4
 # The most points one program may expand to (480 MB of coordinates): a program past it is refused by
 # name, not read until the machine runs out of memory.
 MAX_POINTS = 20_000_000
@@ -67,7 +68,7 @@ class ReaderOptions:
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
 _ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
 _REJECTED_G = {
-    5: "splines (G5.x) are not supported", 6: "NURBS (G6.2) is not supported",
+    5: "splines (G5.x) are not supported", 6: "of the G6 group only G6.2 (NURBS) is supported",
     18: "only the XY plane (G17) is supported, not G18", 19: "only the XY plane (G17) is supported, not G19",
     41: "cutter compensation (G41) is not supported", 42: "cutter compensation (G42) is not supported",
     53: "machine coordinates (G53) are not supported",
@@ -76,7 +77,7 @@ _CANNED = set(range(73, 90)) - {80}
 _UNSUPPORTED_M = {98: "subprogram calls (M98) are not supported", 99: "M99 (subprogram return) is not supported"}
 
 
-class _Interpreter:
+class _Interpreter(NurbsMotion):
     """Modal state machine over the blocks of one program."""
 
     def __init__(self, source: str, options: ReaderOptions) -> None:
@@ -93,6 +94,8 @@ class _Interpreter:
         self.ended = False
         self.started = False  # a line with words (or a '%') has been seen
         self.params = Parameters()
+        self.nurbs: NurbsBlock | None = None  # a G6.2 block being read
+        self.table: StateTable | None = None  # the rows of the text being read, for a closing G6.2 block
         self.text = ""  # the text being read, for the lines run_plain hands to run_block
         self.base = 0  # lines of the program before that text: line numbers are the program's
         # per emitted block: its points (k, 3), their kinds and lines, concatenated at the end
@@ -120,6 +123,8 @@ class _Interpreter:
                 if motion is not None:
                     raise self.fail(lineno, "two motion G words on one line")
                 motion = major
+            elif code == 6.2:  # NURBS (toolpath.gcode.nurbs)
+                others.append(code)
             elif major in _REJECTED_G:
                 raise self.fail(lineno, _REJECTED_G[major])
             elif code == major and major in _CANNED:
@@ -143,6 +148,12 @@ class _Interpreter:
             return
         for key, value in block.assignments:  # after every value on the line was read with the old ones
             self.params.set(key, value)
+        if self.nurbs is not None:
+            if any(w.letter == "K" for w in block.words):
+                self._nurbs_line(block.words, lineno)
+                return
+            if block.words:
+                self.close_nurbs(lineno - 1)
         seen: set[str] = set()
         for w in block.words:
             if w.letter in seen and w.letter not in "GM":
@@ -180,6 +191,9 @@ class _Interpreter:
                 self.motion = None
         if "F" in values:
             self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
+        if 6.2 in others:
+            self._open_nurbs(motion, values, lineno)
+            return
         if 92 in others or 92.1 in others or 92.2 in others:
             self._set_offset(others, values)
             return
@@ -199,7 +213,7 @@ class _Interpreter:
                 raise self.fail(lineno, f"G{motion} without an end point")
             return
         if self.motion is None:
-            raise self.fail(lineno, "axis words with no motion mode in effect (after G80)")
+            raise self.fail(lineno, "axis words with no motion mode in effect (after G80 or a G6.2 block)")
         self._move(values, lineno)
 
     def _home(self, values: dict[str, float], first: int, lineno: int) -> None:

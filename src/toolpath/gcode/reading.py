@@ -61,9 +61,24 @@ class Reading:
         other.lines_read = lines_read
         return other
 
-    def read(self, text: str, vectorise: bool = True) -> Program:
+    def _interpret(self, lines, first: int, stop: int) -> None:  # noqa: ANN001 - the text's Scan
+        """Lines ``first .. stop - 1`` (0-based in the text) through the interpreter, one by one."""
+        interp, base, states = self.interp, self.interp.base, self.interp.table
+        for index in range(first, stop):
+            if not interp.ended:
+                body = interp.text[lines.starts[index]:lines.body_ends[index]]
+                lineno = base + index + 1
+                if len(body) > MAX_LINE_LENGTH:
+                    raise GCodeError(self.source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
+                if lineno == 1 and body.startswith("\ufeff"):  # a UTF-8 BOM
+                    body = body[1:]
+                interp.run_block(tokenize(body, self.source, lineno, interp.params), lineno)
+            interp.record(states, index + 1)
+
+    def read(self, text: str, vectorise: bool = True, final: bool = True) -> Program:
         """The next part of the program: ``text`` is whole lines (its last may lack an ending only
-        at the end of the program)."""
+        at the end of the program).  ``final``: the program ends with it (a G6.2 block still open
+        is closed)."""
         interp, base = self.interp, self.lines_read
         interp.points, interp.kinds, interp.point_lines, interp.total = [], [], [], 0
         interp.text, interp.base = text, base
@@ -71,6 +86,7 @@ class Reading:
         count = lines.count
         states = StateTable(count + 1)
         interp.record(states, 0)
+        interp.table = states
         plain = lines.fast if vectorise else np.zeros(count, bool)  # '/', '%', comments, '#': never plain
         edges = np.flatnonzero(np.diff(plain.astype(np.int8))) + 1
         bounds = [0, *edges.tolist(), count] if count else [0]
@@ -78,19 +94,21 @@ class Reading:
             if interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
                 states.fill(first + 1, count + 1, first)
                 break
-            if plain[first]:
+            if plain[first] and interp.nurbs is not None:  # the first line with words ends the G6.2 block
+                worded = np.flatnonzero(lines.words[first:stop])
+                closing = first + int(worded[0]) + 1 if len(worded) else stop
+                self._interpret(lines, first, closing)
+                first = closing
+                if interp.ended:
+                    states.fill(first + 1, count + 1, first)
+                    break
+            if first < stop and plain[first]:
                 interp.run_plain(lines, first, stop, states)
-                continue
-            for index in range(first, stop):
-                if not interp.ended:
-                    body = text[lines.starts[index]:lines.body_ends[index]]
-                    lineno = base + index + 1
-                    if len(body) > MAX_LINE_LENGTH:
-                        raise GCodeError(self.source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
-                    if lineno == 1 and body.startswith("\ufeff"):  # a UTF-8 BOM
-                        body = body[1:]
-                    interp.run_block(tokenize(body, self.source, lineno, interp.params), lineno)
-                interp.record(states, index + 1)
+            elif first < stop:
+                self._interpret(lines, first, stop)
+        if final and interp.nurbs is not None:
+            interp.close_nurbs(base + count)
+        interp.table = None
         self.lines_read += count
         point_lines = np.concatenate(interp.point_lines) if interp.point_lines else np.zeros(0, np.int32)
         program = Program(

@@ -8,8 +8,9 @@ its start, 50 points each).  Memory is that of a part, whatever the length of th
 
 Where this cannot be exact, it says so here: a window boundary that falls inside an arc's chords
 waits from the arc's line on (the next windows start at the arc's first chord); lines that would
-wait but set a parameter, G28.1 / G30.1 or G90.1 / G91.1 do not wait (their effect could not be
-replayed), and the next part starts its windows afresh.  The machining time plans each part's feed
+wait but set a parameter, G28.1 / G30.1 or G90.1 / G91.1, or hold a G6.2 NURBS line, do not wait
+(their effect could not be replayed), and the next part starts its windows afresh; a part never
+ends inside a G6.2 block.  The machining time plans each part's feed
 runs from rest to rest, so a run longer than a part is timed in pieces, before and after alike.
 """
 
@@ -30,7 +31,8 @@ from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
-_STATEFUL = re.compile(r"#|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1")
+_STATEFUL = re.compile(r"#|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2|^\s*(?:[nN][\d.]+\s*)?[kK]",
+                       re.MULTILINE)
 
 
 @dataclass
@@ -79,10 +81,14 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
     parts = text_parts(path, part_bytes)
     text = next(parts, None)
     while text is not None:
-        program = reading.read(text)
+        following = next(parts, None)
+        program = reading.read(text, final=following is None)
+        while reading.interp.nurbs is not None and following is not None:  # a G6.2 block runs on: read on
+            text, following = following, next(parts, None)
+            program = program.then(reading.read(text, final=following is None))
         if waiting is not None:
             program = waiting.then(program)
-        text = next(parts, None)
+        text = following
         count = len(program.lines) if text is None else _cut(program, options.window)
         head, waiting = program.split(count)
         if count == 0:  # the whole part is one unfinished window: read on

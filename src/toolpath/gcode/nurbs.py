@@ -1,0 +1,157 @@
+"""NURBS motion (G6.2), as Fanuc-style controls and LinuxCNC-era CAM posts write it, turned into chords
+within the reader's chord tolerance.
+
+A block starts with ``G6.2 P<order> K<knot> X.. Y.. [Z..] [R<weight>] [F..]`` (the first control point,
+which must be where the tool stands); each following line with a K word is either a control point
+(``K X Y [Z] [R]``, missing axes modal from the previous point, weight 1 by default) or, at the end, a
+bare knot (``K``).  The first line with words but no K ends the block, as does the end of the program.
+There are ``control points + order`` knots, non-decreasing; the curve runs over
+``[knot[order - 1], knot[n]]``.  The block's points belong to its last K line; afterwards no motion
+mode is in effect (the next move must say G0/G1/G2/G3).  Absolute coordinates (G90) only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from toolpath.gcode.arcs import MAX_ARC_POINTS
+from toolpath.gcode.program import MM_PER_INCH, Motion
+
+
+@dataclass
+class NurbsBlock:
+    """A G6.2 block being read: control points (mm, reader frame), weights and knots so far."""
+
+    order: int
+    first_line: int
+    points: list[np.ndarray] = field(default_factory=list)
+    weights: list[float] = field(default_factory=list)
+    knots: list[float] = field(default_factory=list)
+    last_line: int = 0
+
+
+def _chord_gaps(curve, t: np.ndarray) -> np.ndarray:
+    """Distance from the curve's point at each parameter midpoint to the chord between its neighbours."""
+    a, b = curve(t[:-1]), curve(t[1:])
+    mid = curve(0.5 * (t[:-1] + t[1:]))
+    ab, am = b - a, mid - a
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    s = np.clip(np.einsum("ij,ij->i", am, ab) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    return np.linalg.norm(am - s[:, None] * ab, axis=1)
+
+
+def discretise(block: NurbsBlock, chord_tolerance: float) -> np.ndarray:
+    """Points along the block's curve, after its first, every chord within ``chord_tolerance`` of the
+    curve at its parameter midpoint (chords halved until they are).
+
+    Raises
+    ------
+    ValueError
+        For a block that does not define a NURBS curve, saying why.
+    """
+    from scipy.interpolate import BSpline
+
+    n, order = len(block.points), block.order
+    knots = np.asarray(block.knots, float)
+    if n < order:
+        raise ValueError(f"a NURBS of order {order} needs at least {order} control points, not {n}")
+    if len(knots) != n + order:
+        raise ValueError(f"a NURBS of order {order} with {n} control points needs {n + order} knots (K words), "
+                         f"not {len(knots)}")
+    if np.any(np.diff(knots) < 0):
+        raise ValueError("the knots (K words) of a NURBS must not decrease")
+    if not knots[order - 1] < knots[n]:
+        raise ValueError("the knots leave the NURBS no parameter range (knot[order - 1] = knot[n])")
+    weights = np.asarray(block.weights, float)
+    if np.any(weights <= 0):
+        raise ValueError("NURBS weights (R words) must be positive")
+    homogeneous = np.hstack([np.asarray(block.points) * weights[:, None], weights[:, None]])
+    spline = BSpline(knots, homogeneous, order - 1, extrapolate=False)
+
+    def curve(t: np.ndarray) -> np.ndarray:
+        h = spline(t)
+        return h[:, :3] / h[:, 3:]
+
+    lo, hi = knots[order - 1], knots[n]
+    inner = np.unique(knots[(knots > lo) & (knots < hi)])
+    t = np.unique(np.concatenate([np.linspace(lo, hi, 4 * (n - order + 1) + 1), inner]))
+    while True:
+        gaps = _chord_gaps(curve, t)
+        wide = gaps > chord_tolerance
+        if not wide.any():
+            break
+        t = np.sort(np.concatenate([t, 0.5 * (t[:-1] + t[1:])[wide]]))
+        if len(t) > MAX_ARC_POINTS:
+            raise ValueError(f"the NURBS needs more than {MAX_ARC_POINTS:,} chords at a chord tolerance of "
+                             f"{chord_tolerance:g} mm")
+    return curve(t)[1:]
+
+
+class NurbsMotion:
+    """The reader's handling of G6.2 blocks (mixed into its interpreter, whose state it uses)."""
+
+    def _open_nurbs(self, motion: int | None, values: dict[str, float], lineno: int) -> None:
+        """``G6.2 P<order> K X Y [Z] [R]``: the first control point, where the tool stands."""
+        if motion is not None:
+            raise self.fail(lineno, f"G6.2 and G{motion} on one line")
+        if not self.absolute:
+            raise self.fail(lineno, "G6.2 (NURBS) needs absolute coordinates (G90)")
+        order = values.get("P")
+        if order is None or order != int(order) or not 2 <= order <= 10:
+            raise self.fail(lineno, "G6.2 needs P, the order of the NURBS: a whole number 2-10")
+        if "K" not in values:
+            raise self.fail(lineno, "G6.2 needs K, the first knot")
+        start = self._target(values)
+        if np.abs(start - self.pos).max() > self.opt.chord_tolerance:
+            raise self.fail(lineno, f"G6.2: the first control point {tuple(np.round(start, 6))} is not where the "
+                                    f"tool stands {tuple(np.round(self.pos, 6))}")
+        self.nurbs = NurbsBlock(int(order), lineno, last_line=lineno)
+        self._nurbs_point(values, self.pos.copy(), lineno)
+        self.motion = None
+
+    def _nurbs_point(self, values: dict[str, float], point: np.ndarray, lineno: int) -> None:
+        weight = values.get("R", 1.0)
+        if not weight > 0:
+            raise self.fail(lineno, f"NURBS weight R{weight:g} must be positive")
+        self.nurbs.points.append(point)
+        self.nurbs.weights.append(weight)
+        self.nurbs.knots.append(values["K"])
+
+    def _nurbs_line(self, words, lineno: int) -> None:  # noqa: ANN001 - the line's words
+        """A line of a G6.2 block: ``K X Y [Z] [R]`` (a control point) or a bare ``K`` (a closing knot)."""
+        values = {w.letter: w.value for w in words}
+        extra = sorted({w.letter for w in words} - set("KXYZRNF"))
+        if extra:
+            raise self.fail(lineno, f"a G6.2 block line holds only K, X, Y, Z, R (N, F) words, not {', '.join(extra)}")
+        if "F" in values:
+            self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
+        block = self.nurbs
+        block.last_line = lineno
+        if any(a in values for a in "XYZR"):
+            if len(block.knots) > len(block.points):
+                raise self.fail(lineno, "a G6.2 control point after the closing knots")
+            scale, point = MM_PER_INCH if self.inch else 1.0, block.points[-1].copy()
+            for i, a in enumerate("XYZ"):
+                if a in values:
+                    point[i] = values[a] * scale + self.offset[i]
+            self._nurbs_point(values, point, lineno)
+        else:
+            block.knots.append(values["K"])
+
+    def close_nurbs(self, last_row: int) -> None:
+        """End the open G6.2 block: its chords become points of its last K line; the rows of the text
+        being read from that line to ``last_row`` (program line numbers) get the curve's end."""
+        block, self.nurbs = self.nurbs, None
+        try:
+            pts = discretise(block, self.opt.chord_tolerance)
+        except ValueError as exc:
+            raise self.fail(block.last_line, f"G6.2 block from line {block.first_line}: {exc}") from None
+        if len(pts):
+            self._emit(pts, Motion.ARC, block.last_line)
+            self.pos = pts[-1].copy()
+        if self.table is not None:
+            first, stop = max(block.last_line - self.base, 0), last_row - self.base + 1
+            if stop > first:
+                self.table.position[first:stop] = self.pos

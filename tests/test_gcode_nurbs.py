@@ -1,0 +1,95 @@
+"""G6.2 NURBS blocks: hand cases (a Bezier arc, an exact quarter circle), errors with their lines,
+and the same points whether a program is read whole, line by line or in parts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from toolpath.gcode import GCodeError, ReaderOptions, read_text
+from toolpath.gcode.program import Motion
+from toolpath.gcode.reading import Reading
+
+BEZIER = """G21 G90
+G0 X0 Y0
+G6.2 P3 K0 X0 Y0 R1 F500
+K0 X0 Y5 R1
+K0 X5 Y5 R1
+K1
+K1
+K1
+G1 X10 Y5
+M30
+"""
+
+
+def _bezier(t):
+    p = np.array([[0.0, 0.0], [0.0, 5.0], [5.0, 5.0]])
+    return ((1 - t) ** 2)[:, None] * p[0] + (2 * t * (1 - t))[:, None] * p[1] + (t ** 2)[:, None] * p[2]
+
+
+def _distance_to_polyline(points, polyline):
+    a, b = polyline[:-1], polyline[1:]
+    ab = b - a
+    t = np.clip(np.einsum("kij,ij->ki", points[:, None] - a, ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+    return np.linalg.norm(points[:, None] - (a + t[..., None] * ab), axis=2).min(axis=1)
+
+
+def test_a_quadratic_block_is_its_bezier_within_the_chord_tolerance():
+    p = read_text(BEZIER, options=ReaderOptions(chord_tolerance=0.001))
+    curve = p.points[p.kinds == Motion.ARC][:, :2]
+    assert np.allclose(curve[-1], [5.0, 5.0]) and np.array_equal(p.points[-1], [10.0, 5.0, 0.0])
+    # every chord end lies on the curve: the point of the Bezier nearest to it is within rounding
+    dense = _bezier(np.linspace(0, 1, 20001))
+    assert _distance_to_polyline(curve, dense).max() < 1e-6
+    # and the curve lies within the chord tolerance of the chords (the start point joins them)
+    chords = np.vstack([[0.0, 0.0], curve])
+    assert _distance_to_polyline(dense, chords).max() <= 0.001 + 1e-9
+    assert set(p.lines_of_points[p.kinds == Motion.ARC]) == {8}  # the block's last K line
+    assert p.states[8].position == (5.0, 5.0, 0.0) and p.states[8].feed == 500.0
+
+
+def test_a_rational_quadratic_draws_an_exact_quarter_circle():
+    w = np.sqrt(0.5)
+    text = f"G0 X10 Y0\nG6.2 P3 K0 X10 Y0 R1\nK0 X10 Y10 R{w:.15f}\nK0 X0 Y10 R1\nK1\nK1\nK1\n"
+    p = read_text(text, options=ReaderOptions(chord_tolerance=0.002))
+    curve = p.points[1:, :2]
+    assert np.abs(np.hypot(curve[:, 0], curve[:, 1]) - 10.0).max() < 1e-9
+    chords = np.vstack([[10.0, 0.0], curve])
+    middle = 0.5 * (chords[1:] + chords[:-1])
+    assert (10.0 - np.hypot(middle[:, 0], middle[:, 1])).max() <= 0.002  # each chord's sagitta
+
+
+@pytest.mark.parametrize("block, line, fragment", [
+    ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5\nK0 X5 Y5\nK1\nK1\nG1 X9\n", 6, "needs 6 knots"),
+    ("G6.2 P3 K0 X0 Y0\nK1 X0 Y5\nK0 X5 Y5\nK1\nK1\nK1\nG1 X9\n", 7, "must not decrease"),
+    ("G6.2 P3 K0 X1 Y0\n", 2, "is not where the tool stands"),
+    ("G91\nG6.2 P3 K0 X0 Y0\n", 3, "absolute coordinates"),
+    ("G6.2 K0 X0 Y0\n", 2, "needs P"),
+    ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5 M3\n", 3, "only K, X, Y, Z, R"),
+    ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5 R0\n", 3, "must be positive"),
+    ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5\nK0 X5 Y5\nK1\nK1\nK1\nX9\n", 8, "no motion mode in effect"),
+    ("G6.1 X1\n", 2, "only G6.2"),
+])
+def test_a_bad_block_is_refused_with_its_line(block, line, fragment):
+    with pytest.raises(GCodeError, match=fragment) as caught:
+        read_text("G0 X0 Y0\n" + block, "part.nc")
+    assert f"part.nc:{line}:" in str(caught.value)
+
+
+def test_a_block_at_the_end_of_the_program_is_closed_there():
+    p = read_text("G0 X0 Y0\nG6.2 P2 K0 X0 Y0\nK0 X3 Y4\nK1\nK1\n")
+    assert np.array_equal(p.points[-1], [3.0, 4.0, 0.0]) and p.kinds[-1] == Motion.ARC
+
+
+def test_blocks_read_the_same_whole_line_by_line_and_in_parts():
+    text = BEZIER.replace("M30\n", "") + "G0 X0 Y0\n" + BEZIER.split("\n", 2)[2]
+    whole, slow = read_text(text), read_text(text, vectorise=False)
+    assert whole.points.tobytes() == slow.points.tobytes()
+    lines = text.splitlines(keepends=True)
+    reading = Reading()
+    first = reading.read("".join(lines[:5]), final=False)  # ends inside the first block
+    rest = reading.read("".join(lines[5:]))
+    joined = first.then(rest)
+    assert joined.points.tobytes() == whole.points.tobytes()
+    assert np.array_equal(joined.lines_of_points, whole.lines_of_points)
