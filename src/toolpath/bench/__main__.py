@@ -189,7 +189,7 @@ def _gcode() -> None:
     table = Table(title=f"reading a {result['file']['lines']:,}-line G01 program; toolpath smooth end to end")
     for column in ("what", "does", "lines / s", "peak RSS MB"):
         table.add_column(column, justify="right")
-    rows = [*result["readers"].items(), *((f"toolpath smooth --method {m}", r) for m, r in result["smooth"].items())]
+    rows = [*result["readers"].items(), *((f"toolpath smooth: {m}", r) for m, r in result["smooth"].items())]
     for name, row in rows:
         table.add_row(name, row.get("does", ""), f"{row['lines_per_s']:,.0f}" if row.get("lines_per_s") else
                       row.get("error", "-"), f"{row['peak_rss_mb']:.0f}" if "peak_rss_mb" in row else "-")

@@ -198,7 +198,9 @@ def run(args: argparse.Namespace) -> dict:
                 if args.arcs:
                     _weld(part.result, part.program, args.tolerance, part.start)
                 out.write(part.result.text.encode("utf-8", errors="surrogateescape"))  # undecodable bytes kept
-                total.add(part, machining_time(part.result.runs_before, part.result.runs_after))
+                # the machining time is in the report only: without one, the planner is not run
+                total.add(part, machining_time(part.result.runs_before, part.result.runs_after)
+                          if args.report is not None else (None, None, "no --report asked for"))
         except GCodeError as exc:
             raise InputError(str(exc)) from None
         report = summary(args, total.lines, total, (total.before, total.after, total.why), MACHINE)

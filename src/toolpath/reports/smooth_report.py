@@ -41,7 +41,8 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
                                                          "feed moves only; rapids are not timed" +
                                                          ("; arcs planned as chords within the planner's blend "
                                                           "tolerance" if getattr(args, "arcs", False) else "")},
-        "window_rows": [asdict(w) for w in windows],
+        # per-window rows only where a report is written (a million-line program has 20,000 windows)
+        "window_rows": [dict(vars(w)) for w in windows] if getattr(args, "report", None) is not None else [],
     }
 
 
