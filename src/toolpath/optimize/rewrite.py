@@ -47,7 +47,7 @@ class RewriteOptions:
     seed: int = 0
 
 
-@dataclass
+@dataclass(slots=True)  # a 10-million-line program has 200,000 of them
 class WindowRecord:
     """One classified window: its lines, category, what was done and what it cost in deviation."""
 

@@ -42,7 +42,8 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
                                                          ("; arcs planned as chords within the planner's blend "
                                                           "tolerance" if getattr(args, "arcs", False) else "")},
         # per-window rows only where a report is written (a million-line program has 20,000 windows)
-        "window_rows": [dict(vars(w)) for w in windows] if getattr(args, "report", None) is not None else [],
+        "window_rows": [{name: getattr(w, name) for name in w.__slots__} for w in windows]
+        if getattr(args, "report", None) is not None else [],
     }
 
 
