@@ -73,3 +73,11 @@ def test_a_nurbs_block_across_a_part_end_is_read_once(tmp_path):
     out.write_text(parted)
     assert read_file(out).points.shape == read_file(path).points.shape
     assert many.lines == one.lines and max(w.deviation_mm for w in many.windows) <= 0.01
+
+
+def test_every_corpus_program_smooths_to_the_same_bytes_in_parts(corpus):
+    # parts of ~3 KB: every program is cut many times, next to arcs, parameters and Z moves
+    for path in sorted(p for p in corpus.iterdir() if p.suffix != ".md"):
+        whole, _ = _smooth(path, 1 << 30)
+        parted, _ = _smooth(path, 3000)
+        assert parted == whole, path.name

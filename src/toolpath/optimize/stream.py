@@ -6,9 +6,9 @@ feed run still open at its end; the lines from there on wait and are read again 
 so every window is the window the whole program would have (the run's windows are counted from
 its start, 50 points each).  Memory is that of a part, whatever the length of the program.
 
-Where this cannot be exact, it says so here: a window boundary that falls inside an arc's chords
-waits from the arc's line on (the next windows start at the arc's first chord); lines that would
-wait but set a parameter, G28.1 / G30.1 or G90.1 / G91.1, or hold a G6.2 NURBS line, do not wait
+Where a window boundary falls inside a line's points (an arc's chords), the window before it waits
+too, so the next part still starts on a window's first point.  Where this cannot be exact, it says
+so here: lines that would wait but set a parameter (``#1 = ..``), G28.1 / G30.1 or G90.1 / G91.1, or hold a G6.2 NURBS line, do not wait
 (their effect could not be replayed), and the next part starts its windows afresh; a part never
 ends inside a G6.2 block.  The machining time plans each part's feed
 runs from rest to rest, so a run longer than a part is timed in pieces, before and after alike.
@@ -31,7 +31,7 @@ from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
-_STATEFUL = re.compile(r"#|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2|^\s*(?:[nN][\d.]+\s*)?[kK]",
+_STATEFUL = re.compile(r"#\s*(?:[\d.]+|<[^>]*>)\s*=|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2|^\s*(?:[nN][\d.]+\s*)?[kK]",
                        re.MULTILINE)
 
 
@@ -53,10 +53,18 @@ def _cut(program: Program, window: int) -> int:
         return count  # no feed run open at the end
     runs = feed_runs(program)
     xy, lines = runs[-1]
-    complete = (len(xy) // window) * window
-    if complete == len(xy):
-        complete -= window  # let the last whole window wait too: the next part starts on one of its points
-    line = int(lines[max(complete, 0)])
+    k = (len(xy) // window) * window
+    if k == len(xy):
+        k -= window  # let the last whole window wait too: the next part starts on one of its points
+    # the part after the cut must start with the window's first point: where that point is not the
+    # first of its line (an arc's chords, a repeated point), let the window before wait as well
+    while k > 0:
+        line = int(lines[k])
+        first = int(np.searchsorted(program.lines_of_points, line, side="left"))
+        if lines[k - 1] != line and np.array_equal(program.points[first, :2], xy[k]):
+            break
+        k -= window
+    line = int(lines[max(k, 0)])
     rest = program.lines.text[program.lines.starts[line - 1]:]
     if _STATEFUL.search(rest):
         return count
