@@ -8,10 +8,11 @@ its start, 50 points each).  Memory is that of a part, whatever the length of th
 
 Where a window boundary falls inside a line's points (an arc's chords), the window before it waits
 too, so the next part still starts on a window's first point.  Where this cannot be exact, it says
-so here: lines that would wait but set a parameter (``#1 = ..``), G28.1 / G30.1 or G90.1 / G91.1, or hold a G6.2 NURBS line, do not wait
-(their effect could not be replayed), and the next part starts its windows afresh; a part never
-ends inside a G6.2 block.  The machining time plans each part's feed
-runs from rest to rest, so a run longer than a part is timed in pieces, before and after alike.
+so here: lines that would wait but set a parameter (``#1 = ..``), G28.1 / G30.1 or G90.1 / G91.1,
+or hold a G6.2 NURBS line, do not wait (their effect could not be replayed), and the next part
+starts its windows afresh; a part never ends inside a G6.2 block.  The machining time plans each
+part's feed runs from rest to rest, so a run longer than a part is timed in pieces, before and
+after alike.
 """
 
 from __future__ import annotations
@@ -31,8 +32,9 @@ from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
-_STATEFUL = re.compile(r"#\s*(?:[\d.]+|<[^>]*>)\s*=|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2|^\s*(?:[nN][\d.]+\s*)?[kK]",
-                       re.MULTILINE)
+_STATEFUL = re.compile(r"#\s*(?:[\d.]+|<[^>]*>)\s*="  # a parameter set
+                       r"|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2"  # stored positions, arc centres, NURBS
+                       r"|^\s*(?:[nN][\d.]+\s*)?[kK]", re.MULTILINE)  # a line of a NURBS block
 
 
 @dataclass
