@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -204,8 +205,9 @@ def run(args: argparse.Namespace) -> dict:
         except GCodeError as exc:
             raise InputError(str(exc)) from None
         report = summary(args, total.lines, total, (total.before, total.after, total.why), MACHINE)
-        if backup is not None:
-            _atomic_write(backup, args.input.read_bytes())
+        if backup is not None:  # copied in blocks: a 10-million-line program never sits in memory
+            with _atomic(backup) as copy, args.input.open("rb") as original:
+                shutil.copyfileobj(original, copy, 1 << 20)
     if args.report is not None:
         write_report(args.report, report, total)
     if args.plot is not None:
@@ -244,11 +246,6 @@ def _atomic(path: Path):
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    with _atomic(path) as fh:
-        fh.write(data)
 
 
 def main(argv: list[str] | None = None) -> int:
