@@ -4,7 +4,8 @@ The file is read in parts of about :data:`PART_BYTES` (:func:`toolpath.gcode.rea
 one interpreter carried through them.  A part is smoothed up to the last window boundary of the
 feed run still open at its end; the lines from there on, already read, wait and go with the next
 part (nothing is read twice), so every window is the window the whole program would have (the
-run's windows are counted from its start, 50 points each).  Memory is that of a part, whatever the length of the program.
+run's windows are counted from its start, 50 points each).  Memory is that of a part, whatever
+the length of the program.
 
 Where a window boundary falls inside a line's points (an arc's chords), the window before it waits
 too, so the next part still starts on a window's first point.  Where this cannot be exact, it says
