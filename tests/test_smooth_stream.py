@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from toolpath.cli.smooth import DISPATCH, SMOOTHING, classifier
-from toolpath.gcode import read_file
+from toolpath.gcode import GCodeError, read_file
+from toolpath.gcode.reading import text_parts
 from toolpath.optimize.rewrite import RewriteOptions
 from toolpath.optimize.stream import Combined, smooth_parts
 
@@ -41,6 +43,7 @@ def test_parts_give_the_bytes_and_windows_of_the_whole(tmp_path):
            [(w.first_line, w.last_line, w.category, w.status) for w in one.windows]
     assert np.array_equal(many.changed_lines, one.changed_lines) and len(one.changed_lines) > 0
     assert many.lines == one.lines == len(read_file(path).lines)
+    assert many.parts > 10 and one.parts == 1 and many.restarts == one.restarts == []
 
 
 def test_parameters_near_a_part_end_are_read_once_and_stay_within_tolerance(tmp_path):
@@ -60,6 +63,11 @@ def test_parameters_near_a_part_end_are_read_once_and_stay_within_tolerance(tmp_
     before, after = read_file(path), read_file(out)
     assert after.points[-1, 0] == before.points[-1, 0] == 14.0  # #1 counted to 14, once each
     assert many.windows and max(w.deviation_mm for w in many.windows) <= 0.01
+    assert many.restarts and not one_part_restarts(path)  # the restarts are counted, never silent
+
+
+def one_part_restarts(path):
+    return _smooth(path, 1 << 30)[1].restarts
 
 
 def test_a_nurbs_block_across_a_part_end_is_read_once(tmp_path):
@@ -81,3 +89,20 @@ def test_every_corpus_program_smooths_to_the_same_bytes_in_parts(corpus):
         whole, _ = _smooth(path, 1 << 30)
         parted, _ = _smooth(path, 3000)
         assert parted == whole, path.name
+
+
+@pytest.mark.parametrize("data", [b"G1 X1\rG1 X2\rG1 X3\r\nG1 X4\r\n", b"G1 X1\r\nG1 X2\r\n", b"a\rb\nc"])
+def test_text_parts_never_split_a_crlf_and_keep_every_byte(tmp_path, data):
+    path = tmp_path / "cr.nc"
+    path.write_bytes(data)
+    for size in range(1, len(data) + 1):
+        parts = list(text_parts(path, size))
+        assert "".join(parts).encode() == data
+        assert not any(a.endswith("\r") and b.startswith("\n") for a, b in zip(parts, parts[1:], strict=False))
+
+
+def test_a_line_too_long_in_a_later_part_is_refused_with_its_line(tmp_path):
+    path = tmp_path / "long.nc"
+    path.write_bytes(b"G1 X1\n" * 3000 + b"X" * 20000 + b"\nG1 X2\n")
+    with pytest.raises(GCodeError, match=r"long.nc:3001: the line is longer than"):
+        list(text_parts(path, 4096))

@@ -148,8 +148,8 @@ def text_parts(path: Path, part_bytes: int = 8 << 20) -> Iterator[str]:
                     yield data.decode("utf-8", errors="surrogateescape")
                 return
             cut = data.rfind(b"\n") + 1
-            if cut == 0:
-                cut = data.rfind(b"\r") + 1  # a file of lone CRs: never split between CR and LF there
+            if cut == 0:  # lone CRs so far: cut after one, never after the last byte (an LF may follow it)
+                cut = data.rfind(b"\r", 0, len(data) - 1) + 1
             _check_line_lengths(path, data, cut, limit, lines_before)
             if cut:
                 text = data[:cut].decode("utf-8", errors="surrogateescape")

@@ -46,14 +46,16 @@ class Part:
     program: Program
     result: Rewrite
     start: Reading
+    restarts: bool = False  # the feed run open at its end starts its windows afresh in the next part
 
 
-def _cut(program: Program, window: int) -> int:
+def _cut(program: Program, window: int) -> tuple[int, bool]:
     """How many of the part's lines to smooth now: all but those from the first point of the open
-    run's unfinished window on (or all, where those lines cannot wait)."""
+    run's unfinished window on (or all, where those lines cannot wait); and whether the open run's
+    windows restart in the next part because of that."""
     count = len(program.lines)
     if not len(program.kinds) or program.kinds[-1] == Motion.RAPID:
-        return count  # no feed run open at the end
+        return count, False  # no feed run open at the end
     runs = feed_runs(program)
     xy, lines = runs[-1]
     k = (len(xy) // window) * window
@@ -70,8 +72,8 @@ def _cut(program: Program, window: int) -> int:
     line = int(lines[max(k, 0)])
     rest = program.lines.text[program.lines.starts[line - 1]:]
     if _STATEFUL.search(rest):
-        return count
-    return line - 1
+        return count, True
+    return line - 1, False
 
 
 def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
@@ -100,12 +102,12 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
         if waiting is not None:
             program = waiting.then(program)
         text = following
-        count = len(program.lines) if text is None else _cut(program, options.window)
+        count, restarts = (len(program.lines), False) if text is None else _cut(program, options.window)
         head, waiting = program.split(count)
         if count == 0:  # the whole part is one unfinished window: read on
             continue
         result = smooth_program(head, classify, options, read_options, progress, start=start)
-        yield Part(head, result, start)
+        yield Part(head, result, start, restarts)
         start = reading.resume_at(waiting.states, 0, waiting.first_line - 1)
 
 
@@ -120,6 +122,7 @@ class Combined:
     before: float | None = 0.0
     after: float | None = 0.0
     why: str | None = None
+    parts: int = 0
 
     def __post_init__(self) -> None:
         self.windows: list = []
@@ -128,6 +131,7 @@ class Combined:
         self.changed: list[np.ndarray] = []
         self.runs_before: list[np.ndarray] = []
         self.runs_after: list[np.ndarray] = []
+        self.restarts: list[int] = []  # lines where windows restart because the lines before could not wait
 
     @property
     def changed_lines(self) -> np.ndarray:
@@ -147,6 +151,9 @@ class Combined:
             self.arcs_note = self.arcs_note or result.arcs_note
         self.changed.append(np.asarray(result.changed_lines, np.int64) + shift)
         self.lines += len(part.program.lines)
+        self.parts += 1
+        if part.restarts:
+            self.restarts.append(self.lines + 1)
         self.runs += len(result.runs_before)
         if self.keep_paths:
             self.runs_before.extend(result.runs_before)

@@ -12,6 +12,9 @@ from pathlib import Path
 
 from toolpath.labels.windows import CATEGORY_NAMES
 
+_TIME_NOTE = ("feed planner (seed 002) under the default machine limits, feed moves only; rapids are not timed; "
+              "a run longer than a part (~8 MB of text) is planned in pieces, each from rest to rest")
+
 
 def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
     """Everything a machinist checks before running the new program."""
@@ -29,6 +32,10 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
                                      for c in (1, 2, 3, 4)},
                     "kept_reasons": dict(Counter(w.status[len("kept: "):] for w in windows
                                                  if w.status.startswith("kept")))},
+        # a long program is smoothed in parts; where lines setting a parameter, G28.1/G30.1, G90.1/G91.1
+        # or a G6.2 block sit at a part's end, the windows of the run open there restart (optimize.stream)
+        "parts": {"count": result.parts,
+                  "windows_restart_at_lines": list(result.restarts)},
         "largest_deviation_mm": max([w.deviation_mm for w in windows] + [a.deviation_mm for a in arcs], default=0.0),
         **({"arcs": {"fitted": len(arcs), "lines_replaced": sum(a.lines_replaced for a in arcs),
                      "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
@@ -37,10 +44,9 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
         "machining_time_s": {"before": before, "after": after,
                              "saved_pct": None if not before or after is None else 100.0 * (1 - after / before),
                              "not_planned_because": why,
-                             "machine": machine, "note": "feed planner (seed 002) under the default machine limits, "
-                                                         "feed moves only; rapids are not timed" +
-                                                         ("; arcs planned as chords within the planner's blend "
-                                                          "tolerance" if getattr(args, "arcs", False) else "")},
+                             "machine": machine, "note": _TIME_NOTE + ("; arcs planned as chords within the "
+                                                                        "planner's blend tolerance"
+                                                                        if getattr(args, "arcs", False) else "")},
         # per-window rows only where a report is written (a million-line program has 20,000 windows)
         "window_rows": [{name: getattr(w, name) for name in w.__slots__} for w in windows]
         if getattr(args, "report", None) is not None else [],
