@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from toolpath.geometry import directed_hausdorff, hausdorff, point_to_polyline
+from toolpath.geometry.hausdorff import _far_out_of_band, moved_hausdorff
 
 
 def dense(polyline: np.ndarray, per_segment: int = 400) -> np.ndarray:
@@ -79,3 +80,44 @@ def test_never_below_dense_sampling_and_symmetric(a, b):
     assert ours == pytest.approx(float(hausdorff(b, a)), abs=1e-9)
     sampled = max(point_to_polyline(dense(a, 200), b).max(), point_to_polyline(dense(b, 200), a).max())
     assert sampled <= ours + 1e-9
+
+
+def _moved(kind: int, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    if kind == 0:  # a wavy cut, the usual case: every far segment is far in space
+        t = np.arange(n) * 0.2
+        a = np.c_[t, np.sin(t)]
+    elif kind == 1:  # a hairpin whose legs lie 0.015 apart: far in index, near in space
+        t = np.arange(n) * 0.1
+        a = np.c_[np.where(t < t[n // 2], t, 2 * t[n // 2] - t), np.where(t < t[n // 2], 0.0, 0.015)]
+    else:  # steps much shorter than the moves
+        a = np.cumsum(rng.normal(0, 0.01, (n, 2)), axis=0)
+    b = a + rng.normal(0, 0.004, a.shape)
+    b[0], b[-1] = a[0], a[-1]
+    return a, b
+
+
+def test_moved_polylines_measured_in_a_band_equal_the_whole_measure():
+    rng = np.random.default_rng(3)
+    pairs = [_moved(k % 3, int(rng.integers(3, 60)), rng) for k in range(90)]
+    old, new = [a for a, _ in pairs], [b for _, b in pairs]
+    whole = np.array([float(hausdorff(a, b)) for a, b in pairs])
+    assert moved_hausdorff(old, new) == pytest.approx(whole, rel=1e-12, abs=1e-15)
+    assert moved_hausdorff(old, new, band=1) == pytest.approx(whole, rel=1e-12, abs=1e-15)
+
+
+def test_moved_hand_cases():
+    line = np.c_[np.arange(10.0), np.zeros(10)]
+    lifted = line + [0.0, 0.3]
+    bump = line.copy()
+    bump[5, 1] = 0.5  # one vertex lifted: its distance to the old line is the whole 0.5
+    assert moved_hausdorff([line, line, line], [lifted, bump, line]).tolist() == pytest.approx([0.3, 0.5, 0.0])
+    # a hairpin's legs 0.01 apart, a point of the first leg moved 0.02 up, past the second leg: it is
+    # 0.01 from the old path (the other leg), not 0.02 (its own leg, all a band sees); the band test
+    # must notice the near leg and measure the pair whole
+    legs = np.r_[np.c_[np.arange(8.0), np.zeros(8)], np.c_[np.arange(7.0, -1.0, -1.0), np.full(8, 0.01)]]
+    moved = legs.copy()
+    moved[3, 1] = 0.02
+    assert not _far_out_of_band(legs[None], moved[None], 2)[0] and _far_out_of_band(line[None], bump[None], 2)[0]
+    assert moved_hausdorff([legs], [moved])[0] == pytest.approx(0.01, rel=1e-9)
+    with pytest.raises(ValueError, match="keep its number of points"):
+        moved_hausdorff([line, line], [line, line[:-1]])

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from conftest import REPO
 from toolpath.cli import smooth as cli
 from toolpath.gcode import read_text
-from toolpath.gcode.edit import substitute_xy
+from toolpath.gcode.edit import substitute_plain_xy, substitute_xy
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
 from toolpath.models.rule import LocalCurvatureRule
@@ -101,6 +101,20 @@ def test_substitution_keeps_everything_but_the_numbers():
     assert substitute_xy("G1 Y2.000 (x stays modal)\n", {"X": "0.500", "Y": "2.010"}) == \
         "G1 X0.500 Y2.010 (x stays modal)\n"
     assert substitute_xy("G1 X1.0\n", {"X": "1.1", "Y": "0.2"}) == "G1 X1.1 Y0.2\n"
+
+
+@settings(max_examples=100, deadline=None)
+@given(words=st.permutations(["X", "Y", "G1", "Z", "F", "N"]), keep=st.lists(st.booleans(), min_size=6, max_size=6),
+       numbers=st.lists(st.from_regex(r"[+-]?(\d{1,4}(\.\d{0,4})?|\.\d{1,3})", fullmatch=True), min_size=6, max_size=6),
+       lower=st.booleans(), ending=st.sampled_from(["\n", "\r\n", ""]), blank=st.sampled_from([" ", "", "\t"]))
+def test_the_plain_line_substitution_is_the_general_one(words, keep, numbers, lower, ending, blank):
+    # the scanner's plain lines: letters G X Y Z F N, each at most once, each with a plain number
+    parts = [w if w == "G1" else w + n for w, n, k in zip(words, numbers, keep, strict=True) if k or w in "XY"]
+    line = blank.join(parts) + ending
+    line = line.lower() if lower else line
+    for drop in ("", "X", "Y"):
+        text = re.sub(rf"{drop}[+-]?[\d.]+\s?", "", line, flags=re.I) if drop else line
+        assert substitute_plain_xy(text, "1.250", "-0.500") == substitute_xy(text, {"X": "1.250", "Y": "-0.500"})
 
 
 def test_tolerance_finer_than_the_numbers_is_refused():

@@ -19,6 +19,9 @@ from toolpath.gcode.reader import MM_PER_INCH, Motion, Program
 # a plain number as the lexer reads it (blanks allowed after the letter and around the sign)
 _PLAIN = re.compile(r"\s*[+-]?\s*(\d+\.?\d*|\.\d+)")
 _AXIS_LETTER = re.compile(r"[XxYy]")
+_NUMBER = r"\s*[+-]?\s*(?:\d+\.?\d*|\.\d+)"
+_AXIS_WORD = re.compile(rf"([XxYy]){_NUMBER}")
+_X_THEN_Y = re.compile(rf"([^XxYy]*[Xx]){_NUMBER}([^XxYy]*[Yy]){_NUMBER}")  # the usual order, in one match
 
 
 @dataclass(frozen=True)
@@ -128,6 +131,24 @@ def substitute_xy(line: str, values: dict[str, str]) -> str:
     for start, end, text in sorted(edits, key=lambda e: (e[0], e[1]), reverse=True):
         body = body[:start] + text + body[end:]
     return body + ending
+
+
+def substitute_plain_xy(line: str, x: str, y: str) -> str:
+    """:func:`substitute_xy` of both X and Y on a line the scanner found plain (no comment, no parameter,
+    each letter once), in one regular-expression pass; a line lacking X or Y takes the general route."""
+    usual = _X_THEN_Y.match(line)
+    if usual is not None:
+        return f"{usual.group(1)}{x}{usual.group(2)}{y}{line[usual.end():]}"
+    letters = []
+
+    def put(match: re.Match) -> str:
+        letters.append(match.group(1))
+        return match.group(1) + (x if match.group(1) in "Xx" else y)
+
+    out = _AXIS_WORD.sub(put, line)
+    if len(letters) == 2 and letters[0].upper() != letters[1].upper():
+        return out
+    return substitute_xy(line, {"X": x, "Y": y})
 
 
 def program_coordinates(program: Program, lineno: int, xy_mm: np.ndarray) -> np.ndarray:

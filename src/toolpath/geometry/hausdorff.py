@@ -123,12 +123,13 @@ def _subdivide(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([start + t[None, :, None] * (end - start), a[:, -1:]], axis=1)
 
 
-def _directed_chunk(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _directed_chunk(a: np.ndarray, b: np.ndarray, subdivide: bool = True) -> np.ndarray:
     """:func:`directed_hausdorff` on a batch (k, n, 2) x (k, m, 2)."""
     best = point_to_polyline(a, b).max(axis=-1)  # the vertices of A (t = 0, 1)
     if a.shape[1] < 2 or b.shape[1] < 2:
         return best
-    a = _subdivide(a, b)
+    if subdivide:
+        a = _subdivide(a, b)
     a0, a1 = a[:, :-1], a[:, 1:]
     b0, b1 = b[:, :-1], b[:, 1:]
     # d_j at both ends of every A segment, (k, n-1, m-1)
@@ -193,3 +194,80 @@ def directed_hausdorff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def hausdorff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The two-sided distance ``max(h(A, B), h(B, A))`` between polylines, exact on segments; (...,)."""
     return np.maximum(directed_hausdorff(a, b), directed_hausdorff(b, a))
+
+
+def moved_hausdorff(old: list[np.ndarray], new: list[np.ndarray], band: int = 2) -> np.ndarray:
+    """:func:`hausdorff` of each polyline ``old[k]`` (n, 2) and the same polyline with its points moved,
+    ``new[k]`` (``new[k][i]`` is ``old[k][i]`` moved), in O(n) instead of O(n^2) per pair; (len(old),).
+
+    Why a band of segments is exact.  On segment i of one polyline, the distance to the other is at most
+    ``U_i``, the larger move of the segment's two end points (the points ``(1 - t) p + t q`` of the two
+    segments i are that close, by convexity).  A segment j of the other polyline that is farther than
+    ``U_i`` from segment i is never the nearest, so only segments within ``band`` places of i are used
+    wherever every segment farther in index is shown farther in space: ``|m_i - m_j| > h_i + h_j + U``
+    (mid-points ``m``, half-lengths ``h``).  A pair where that test fails (a path folding back within a
+    few moves of itself) is measured by :func:`hausdorff` whole.
+    """
+    window = 2 * band + 2  # points of the band around a segment
+    result = np.zeros(len(old))
+    sizes = np.array([len(a) for a in old], int)
+    if any(a.shape != b.shape for a, b in zip(old, new, strict=True)):
+        raise ValueError("every polyline must keep its number of points when moved")
+    banded = []
+    for size in np.unique(sizes):  # polylines of one length are checked, or measured whole, in one batch
+        group = np.flatnonzero(sizes == size)
+        a, b = np.stack([old[k] for k in group]), np.stack([new[k] for k in group])
+        far = _far_out_of_band(a, b, band) if size >= window else np.zeros(len(group), bool)
+        banded.extend(group[far].tolist())
+        if not far.all():
+            result[group[~far]] = hausdorff(a[~far], b[~far])
+    if banded:
+        result[banded] = _banded(old, new, banded, band, window)
+    return result
+
+
+def _far_out_of_band(a: np.ndarray, b: np.ndarray, band: int) -> np.ndarray:
+    """Per polyline pair (k, n, 2): True when every segment farther than ``band`` places is far in space."""
+    if len(a) > 256:  # the (k, n, n) arrays below stay a few tens of MB
+        return np.concatenate([_far_out_of_band(a[s:s + 256], b[s:s + 256], band) for s in range(0, len(a), 256)])
+    move = np.linalg.norm(a - b, axis=-1)
+    reach = np.maximum(move[:, :-1], move[:, 1:])  # U_i, on both polylines' segment i
+    mid_a, mid_b = (a[:, :-1] + a[:, 1:]) / 2, (b[:, :-1] + b[:, 1:]) / 2
+    half_a = np.linalg.norm(np.diff(a, axis=1), axis=-1) / 2
+    half_b = np.linalg.norm(np.diff(b, axis=1), axis=-1) / 2
+    dx = mid_a[:, :, None, 0] - mid_b[:, None, :, 0]
+    dy = mid_a[:, :, None, 1] - mid_b[:, None, :, 1]
+    needed = half_a[:, :, None] + half_b[:, None, :] + np.maximum(reach[:, :, None], reach[:, None, :])
+    needed = needed * (1 + 1e-9) + 1e-12
+    index = np.arange(reach.shape[1])
+    in_band = np.abs(index[:, None] - index[None]) <= band
+    return np.all((dx * dx + dy * dy > needed * needed) | in_band, axis=(1, 2))
+
+
+def _banded(old, new, which: list[int], band: int, window: int) -> np.ndarray:
+    sizes = np.array([len(old[k]) for k in which])
+    offsets = np.r_[0, np.cumsum(sizes)[:-1]]
+    a_all, b_all = np.concatenate([old[k] for k in which]), np.concatenate([new[k] for k in which])
+    segments = sizes - 1
+    firsts = np.r_[0, np.cumsum(segments)[:-1]]
+    owner = np.repeat(np.arange(len(which)), segments)
+    local = np.arange(segments.sum()) - np.repeat(firsts, segments)
+    first = offsets[owner] + local  # each segment's first point, globally
+    start = offsets[owner] + np.clip(local - band, 0, sizes[owner] - window)  # its band's first point
+    pair, span = first[:, None] + np.arange(2), start[:, None] + np.arange(window)
+    directions = [(a_all[pair], b_all[span]), (b_all[pair], a_all[span])]
+    # every segment's end points against its band: the vertices' distances, and the bound on the
+    # segment's inside (min over j of max(d_j(0), d_j(1))) that lets most segments be skipped
+    vertex, upper = [], []
+    for ends, near in directions:
+        d = _point_segment_distance(ends[:, :, None], near[:, None, :-1], near[:, None, 1:])  # (K, 2, window - 1)
+        vertex.append(d.min(axis=-1).max(axis=-1))
+        upper.append(d.max(axis=1).min(axis=-1))
+    worst = np.maximum.reduceat(np.maximum(*vertex), firsts)  # the farthest vertex, per polyline
+    step = 20_000  # segments per batch: memory stays a few tens of MB
+    for (ends, near), bound in zip(directions, upper, strict=True):
+        inside = np.flatnonzero(bound > worst[owner] * (1 + 1e-12))
+        for s in range(0, len(inside), step):
+            pick = inside[s:s + step]
+            np.maximum.at(worst, owner[pick], _directed_chunk(ends[pick], near[pick], subdivide=False))
+    return worst

@@ -21,13 +21,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_xy
+from toolpath.gcode.edit import axis_words, movable_lines, substitute_plain_xy, substitute_xy
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.curvature import local_curvature
-from toolpath.geometry.hausdorff import hausdorff
+from toolpath.geometry.hausdorff import moved_hausdorff
 from toolpath.labels.windows import feed_runs
 from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth
 
@@ -140,13 +140,23 @@ def line_decimals(program: Program, line: int) -> int:
     return max([w.decimals for w in words.values()] + [default])
 
 
-def rounding_margin(program: Program, lines: np.ndarray) -> float:
-    """The most that writing a point at its line's precision moves it, in mm."""
-    worst = 0.0
-    for line in lines:
-        scale = MM_PER_INCH if program.states.inch[int(line) - 1] else 1.0
-        worst = max(worst, 0.5 * 10.0 ** -line_decimals(program, int(line)) * scale * np.sqrt(2.0))
-    return worst
+def decimals_of(program: Program, lines: np.ndarray) -> np.ndarray:
+    """:func:`line_decimals` of many lines at once (the scanner's plain lines from its columns)."""
+    lines = np.asarray(lines, np.int64)
+    inch = program.states.inch[lines - 1].astype(bool)
+    out = np.where(inch, DEFAULT_DECIMALS[True], DEFAULT_DECIMALS[False]).astype(np.int64)
+    plain = program.plain[lines - 1] if program.plain is not None else np.zeros(len(lines), bool)
+    out[plain] = np.maximum(program.xy_decimals[lines[plain] - 1].max(axis=1), out[plain])
+    for k in np.flatnonzero(~plain):
+        out[k] = line_decimals(program, int(lines[k]))
+    return out
+
+
+def rounding_margins(program: Program, lines: np.ndarray, decimals: np.ndarray) -> np.ndarray:
+    """Per line, the most that writing a point at the line's precision moves it, in mm."""
+    half_unit = np.array([0.5 * 10.0 ** -d for d in range(int(decimals.max(initial=0)) + 1)])
+    scale = np.where(program.states.inch[np.asarray(lines, np.int64) - 1], MM_PER_INCH, 1.0)
+    return half_unit[decimals] * scale * np.sqrt(2.0)
 
 
 def _method_for(category: int, options: RewriteOptions) -> str:
@@ -194,25 +204,41 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
                 record.status = f"kept: {reason}"
             for a, b in stretches:
                 jobs.append((r, int(a), int(b), record))
-    edits: dict[int, str] = {}
-    for r, a, b, record in progress(jobs):
+    moved_lines = [runs[r][1][a + 1:b].astype(np.int64) for r, a, b, _ in jobs]
+    flat = np.concatenate(moved_lines) if jobs else np.zeros(0, np.int64)
+    decimals = decimals_of(program, flat)
+    margins = rounding_margins(program, flat, decimals)
+    bounds = np.cumsum([0] + [len(lines) for lines in moved_lines])
+    moved = []
+    for k, (r, a, b, record) in enumerate(progress(jobs)):
         xy, lines = runs[r]
-        margin = rounding_margin(program, lines[a + 1:b])
+        margin = margins[bounds[k]:bounds[k + 1]].max()
         if options.tolerance - margin <= 0:
             raise GCodeError(program.source, int(lines[a + 1]), f"the tolerance {options.tolerance} mm is finer "
                              f"than this line's numbers can express ({margin:.2g} mm)")
         cfg = {**options.smoothing, "tolerance": options.tolerance - margin}
         result = smooth(xy[a:b + 1], record.method, cfg, "bound", options.seed + a, check=False)  # _verify checks
-        for k in range(a + 1, b):
-            line = int(lines[k])
-            value = program_coordinates(program, line, result.points[k - a])
-            decimals = line_decimals(program, line)
-            words = {"X": fmt(value[0], decimals), "Y": fmt(value[1], decimals)}
-            edits[line] = substitute_xy(program.lines[line - 1], words)
+        moved.append(result.points[1:-1])
         record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
+    edits = _edits(program, flat, np.concatenate(moved) if moved else np.zeros((0, 2)), decimals)
     text = program.lines.joined(edits) if hasattr(program.lines, "joined") else \
         "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
     return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
+
+
+def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np.ndarray) -> dict[int, str]:
+    """The new text of each moved line: its X/Y numbers, in its own frame and units, at its precision."""
+    states = program.states
+    scale = np.where(states.inch[lines - 1], MM_PER_INCH, 1.0)
+    values = (points - np.asarray(states.offsets)[states.offset_id[lines - 1]][:, :2]) / scale[:, None]
+    plain = program.plain[lines - 1] if program.plain is not None else np.zeros(len(lines), bool)
+    edits = {}
+    for line, (x, y), places, fast in zip(lines.tolist(), values.tolist(), decimals.tolist(), plain.tolist(),
+                                          strict=True):
+        raw, x_text, y_text = program.lines[line - 1], fmt(x, places), fmt(y, places)
+        edits[line] = substitute_plain_xy(raw, x_text, y_text) if fast else \
+            substitute_xy(raw, {"X": x_text, "Y": y_text})
+    return edits
 
 
 def _verify(program: Program, text: str, runs, records, jobs, edits, options, read_options, start) -> Rewrite:
@@ -232,16 +258,13 @@ def _verify(program: Program, text: str, runs, records, jobs, edits, options, re
         new[changed] = reread.points[point_of_line[lines[changed]], :2]
         new_runs.append(new)
     worst: dict[int, float] = {}
-    sizes = np.array([b - a + 1 for _, a, b, _ in jobs], int)
-    for size in np.unique(sizes):  # stretches of one length measured in one batch
-        group = [jobs[k] for k in np.flatnonzero(sizes == size)]
-        old = np.stack([runs[r][0][a:b + 1] for r, a, b, _ in group])
-        new = np.stack([new_runs[r][a:b + 1] for r, a, b, _ in group])
-        for (r, a, _, record), deviation in zip(group, hausdorff(old, new).tolist(), strict=True):
-            if deviation > options.tolerance + 1e-9:
-                raise GCodeError(program.source, int(runs[r][1][a + 1]), f"internal check failed: a smoothed "
-                                 f"stretch lies {deviation:.6f} mm from the original, over {options.tolerance} mm")
-            worst[id(record)] = max(worst.get(id(record), 0.0), deviation)
+    deviations = moved_hausdorff([runs[r][0][a:b + 1] for r, a, b, _ in jobs],
+                                 [new_runs[r][a:b + 1] for r, a, b, _ in jobs]) if jobs else []
+    for (r, a, _, record), deviation in zip(jobs, np.asarray(deviations).tolist(), strict=True):
+        if deviation > options.tolerance + 1e-9:
+            raise GCodeError(program.source, int(runs[r][1][a + 1]), f"internal check failed: a smoothed "
+                             f"stretch lies {deviation:.6f} mm from the original, over {options.tolerance} mm")
+        worst[id(record)] = max(worst.get(id(record), 0.0), deviation)
     after: dict[int, list[float]] = {}  # per run, LocalCurvature of each window of the new path
     size = options.window
     for r, new in enumerate(new_runs):
