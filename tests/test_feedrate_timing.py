@@ -8,7 +8,7 @@ import pytest
 from toolpath.feedrate import Machine, plan, polyline_radius
 from toolpath.feedrate.planner import _vertex_intervals, arc_length
 from toolpath.feedrate.scurve import ramp_distance as scalar_ramp_distance
-from toolpath.feedrate.timing import machining_time, ramp_distance, vertex_intervals
+from toolpath.feedrate.timing import fit_speeds, machining_time, ramp_distance, vertex_intervals
 
 MACHINE = Machine(feed=100.0, period=0.001, chord_error=0.001, contour_error=0.005, normal_acceleration=2000.0,
                   normal_jerk=50000.0, tangential_acceleration=2000.0, tangential_jerk=50000.0, kp=400.0,
@@ -46,3 +46,19 @@ def test_a_square_s_corners_are_intervals_of_their_own():
     assert [tuple(x) for x in zip(start, end, speed, sensitive, strict=True)] == expected
     assert machining_time(square, MACHINE, 0.005) == pytest.approx(
         plan(square, polyline_radius(square, 0.005), MACHINE).time, rel=1e-12)
+
+
+@pytest.mark.parametrize("count", [1, 2, 3, 4, 7, 8])
+def test_a_last_interval_lowered_beside_the_rest_at_the_end_is_the_last(count):
+    # intervals as :func:`vertex_intervals` makes them (segments between vertices of their own, of
+    # length 0), ending on a vertex: it is lowered to rest beside the path's end, which is no interval
+    # (with an even count that once read past the end of the speeds)
+    lengths, limits = np.tile([0.01, 0.0], count), np.tile([100.0, 50.0], count)
+    speeds = fit_speeds(lengths, limits, MACHINE)
+    around = np.r_[0.0, speeds, 0.0]
+    A, J = MACHINE.tangential_acceleration, MACHINE.tangential_jerk
+    for k in range(len(lengths)):
+        need = sum(float(ramp_distance(np.array([v]), np.array([speeds[k]]), A, J)[0])
+                   for v in (around[k], around[k + 2]) if v < speeds[k])
+        assert need <= lengths[k] * (1 + 1e-9) + 1e-12
+    assert speeds[-1] == 0.0 and (speeds[:-1] > 0).all()

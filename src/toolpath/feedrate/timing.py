@@ -93,7 +93,7 @@ def fit_speeds(lengths: np.ndarray, limits: np.ndarray, machine: Machine) -> np.
                 lo, hi = np.where(fits, mid, lo), np.where(fits, hi, mid)
             speeds[over] = lo
             active[over - 1] = active[over + 1] = True
-        active[0] = active[-1] = False
+            active[0] = active[-1] = False  # the rest at either end is no interval
     return speeds[1:-1]
 
 
