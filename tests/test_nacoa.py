@@ -119,6 +119,21 @@ def test_nacoa_lowers_the_fitness_and_repeats_with_a_seed():
     assert all(a >= b for a, b in zip(first.history, first.history[1:], strict=False))
 
 
+@pytest.mark.parametrize("mode", ["bound", "penalty"])
+def test_windows_solved_side_by_side_get_the_results_each_gets_alone(mode):
+    rng = np.random.default_rng(4)
+    problems = [SmoothingProblem(zigzag() + rng.normal(0, 0.02, zigzag().shape), mode=mode, tolerance=0.05)
+                for _ in range(5)]
+    settings = NACOASettings(population=12, generations=12, m0=4, m_max=4, exchange_every=5)
+    together = NACOA(settings).solve_many(problems, [11, 12, 13, 14, 15])
+    for problem, seed, result in zip(problems, [11, 12, 13, 14, 15], together, strict=True):
+        alone = NACOA(settings).solve(problem, seed)
+        assert np.array_equal(alone.points, result.points) and alone.history == result.history
+        assert alone.objective == result.objective and alone.evaluations == result.evaluations
+    with pytest.raises(ValueError, match="one window length"):
+        NACOA(settings).solve_many([problems[0], SmoothingProblem(zigzag()[:-1], mode=mode, tolerance=0.05)], [1, 2])
+
+
 def test_settings_are_checked():
     with pytest.raises(ValueError, match="gradient"):
         NACOASettings(gradient="adam")

@@ -76,6 +76,14 @@ def smooth(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int,
     return result
 
 
+def smooth_nacoa_together(windows: list[np.ndarray], cfg: Mapping, mode: str,
+                          seeds: list[int]) -> list[SmoothingResult]:
+    """``smooth(window, "nacoa", cfg, mode, seed, check=False)`` of each window, the windows (of one
+    length) run side by side (:meth:`NACOA.solve_many`: the same results, less overhead per window)."""
+    problems = [problem_from(window, cfg, mode) for window in windows]
+    return NACOA(nacoa_settings(cfg, problems[0].tolerance)).solve_many(problems, seeds)
+
+
 def _run(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int, encoding: str) -> SmoothingResult:
     if method not in METHODS:
         raise ValueError(f"unknown smoothing method {method!r}; known: {', '.join(METHODS)}")

@@ -31,8 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from toolpath.geometry.curvature import fitness
 from toolpath.optimize.gradient import central_difference_gradient, fitness_gradient
-from toolpath.optimize.problem import SmoothingProblem
+from toolpath.optimize.problem import SmoothingProblem, clip_displacement
 from toolpath.optimize.result import SmoothingResult
 
 GRADIENTS = ("exact", "central", "off")
@@ -127,8 +128,43 @@ def initial_population(problem: SmoothingProblem, settings: NACOASettings, rng: 
     return x
 
 
+class _Windows:
+    """Several problems of one shape, mode and tolerance solved together: every array gains a leading
+    window axis, so one NumPy call serves the whole batch (the same arithmetic, element by element)."""
+
+    def __init__(self, problems: list[SmoothingProblem]) -> None:
+        first = problems[0]
+        if any((p.window.shape, p.mode, p.tolerance, p.weight) != (first.window.shape, first.mode, first.tolerance,
+                                                                   first.weight) for p in problems):
+            raise ValueError("problems solved together need one window length, mode, tolerance and weight")
+        self.windows = np.stack([p.window for p in problems])[:, None]  # (W, 1, n, 2)
+        self.mode, self.tolerance, self.weight = first.mode, first.tolerance, first.weight
+        self.dimension = first.dimension
+
+    def points(self, x: np.ndarray, project: bool = True) -> np.ndarray:
+        """:meth:`SmoothingProblem.points` of decision vectors (W, pop, dimension)."""
+        pts = np.broadcast_to(self.windows, (*x.shape[:-1], *self.windows.shape[-2:])).copy()
+        pts[..., 1:-1, :] += x.reshape(*x.shape[:-1], -1, 2)
+        if project and self.mode == "bound":
+            inner = self.windows[..., 1:-1, :]
+            pts[..., 1:-1, :] = inner + clip_displacement(pts[..., 1:-1, :] - inner, self.tolerance)
+        return pts
+
+    def score(self, pts: np.ndarray) -> np.ndarray:
+        value = fitness(pts)
+        if self.mode == "penalty":
+            moved = pts[..., 1:-1, :] - self.windows[..., 1:-1, :]
+            value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
+        return value
+
+    def displacement(self, points: np.ndarray) -> np.ndarray:
+        return (points[..., 1:-1, :] - self.windows[..., 1:-1, :]).reshape(*points.shape[:-2], -1)
+
+
 class NACOA:
-    """Minimise a :class:`SmoothingProblem` from a seed; :meth:`solve` returns a :class:`SmoothingResult`."""
+    """Minimise a :class:`SmoothingProblem` from a seed; :meth:`solve` returns a :class:`SmoothingResult`.
+    :meth:`solve_many` runs several windows side by side, each with its own seed: each result is the
+    one :meth:`solve` gives (a test checks it bit for bit), at a fraction of the per-call overhead."""
 
     def __init__(self, settings: NACOASettings) -> None:
         self.settings = settings
@@ -141,63 +177,72 @@ class NACOA:
             return central_difference_gradient(points, s.eps), 2 * (points.shape[-2] - 2) * 2
         return np.zeros_like(points), 0
 
-    def _evaluate(self, problem: SmoothingProblem, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _evaluate(self, batch: _Windows, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Feasible decision vectors (projected in ``bound`` mode) and their objective values."""
-        points = problem.points(x)
-        return problem.displacement(points), problem.score(points)
+        points = batch.points(x)
+        return batch.displacement(points), batch.score(points)
 
-    def _honey_badger(self, problem, x, fit, rng) -> tuple[np.ndarray, np.ndarray, int]:
+    def _honey_badger(self, batch: _Windows, x, fit, rngs) -> tuple[np.ndarray, np.ndarray, int]:
         """Sec. 4.2.1: ``hba_generations`` of digging / foraging around the global best (Eq. 4-5, 11)."""
         s = self.settings
-        pop, n_inner = x.shape[0], problem.dimension // 2
-        soft = max(problem.tolerance, 1e-9) ** 2
+        count, pop, n_inner = x.shape[0], x.shape[1], batch.dimension // 2
+        soft = max(batch.tolerance, 1e-9) ** 2
         evaluations = 0
+        every = np.arange(count)
         for _ in range(s.hba_generations):
-            best = x[fit.argmin()].reshape(n_inner, 2)
-            pts = problem.points(x, project=False)  # x is feasible already
-            xs = x.reshape(pop, n_inner, 2)
+            best = x[every, fit.argmin(axis=1)].reshape(count, 1, n_inner, 2)
+            pts = batch.points(x, project=False)  # x is feasible already
+            xs = x.reshape(count, pop, n_inner, 2)
             # Eq. 4: S = |p_k[i+1] - p_k[i]|, d_i = |g_best[i] - p_k[i]|, I = r1 S / (4 pi d_i^2)
-            seg = np.linalg.norm(pts[:, 2:] - pts[:, 1:-1], axis=-1)
+            seg = np.linalg.norm(pts[..., 2:, :] - pts[..., 1:-1, :], axis=-1)
             d_vec = best - xs
             d2 = np.sum(d_vec**2, axis=-1)
-            intensity = np.minimum(rng.random((pop, n_inner)) * seg / (4.0 * np.pi * (d2 + soft)), 1.0)
-            sign = rng.choice([-1.0, 1.0], size=(pop, n_inner, 1))
-            r2, r3, r4, r5, r6 = (rng.random((pop, n_inner, 1)) for _ in range(5))
+            draws = [(rng.random((pop, n_inner)), rng.choice([-1.0, 1.0], size=(pop, n_inner, 1)),
+                      *(rng.random((pop, n_inner, 1)) for _ in range(5))) for rng in rngs]
+            r1, sign, r2, r3, r4, r5, r6 = (np.stack(d) for d in zip(*draws, strict=True))
+            intensity = np.minimum(r1 * seg / (4.0 * np.pi * (d2 + soft)), 1.0)
             # Eq. 5, digging (r6 <= 0.5) and foraging phases
             digging = (best + sign * s.beta * intensity[..., None] * best
                        + sign * r2 * s.alpha1 * d_vec * np.abs(np.cos(2 * np.pi * r3) * (1 - np.cos(2 * np.pi * r4))))
             foraging = best + sign * r5 * s.alpha1 * d_vec
-            moved = np.where(r6 <= 0.5, digging, foraging).reshape(pop, -1)
-            moved, moved_fit = self._evaluate(problem, moved)
+            moved = np.where(r6 <= 0.5, digging, foraging).reshape(count, pop, -1)
+            moved, moved_fit = self._evaluate(batch, moved)
             evaluations += pop
             better = moved_fit < fit
             x[better], fit[better] = moved[better], moved_fit[better]  # Eq. 11 keeps the best over generations
         return x, fit, evaluations
 
     def solve(self, problem: SmoothingProblem, seed: int) -> SmoothingResult:
+        return self.solve_many([problem], [seed])[0]
+
+    def solve_many(self, problems: list[SmoothingProblem], seeds: list[int]) -> list[SmoothingResult]:
+        """:meth:`solve` of each problem with its seed; the problems share window length, mode and tolerance."""
         s = self.settings
         start = time.perf_counter()
-        rng = np.random.default_rng(seed)
-        x, fit = self._evaluate(problem, initial_population(problem, s, rng))
-        evaluations = len(x)
-        x, fit, used = self._honey_badger(problem, x, fit, rng)
+        batch, rngs = _Windows(problems), [np.random.default_rng(seed) for seed in seeds]
+        x = np.stack([initial_population(p, s, rng) for p, rng in zip(problems, rngs, strict=True)])
+        x, fit = self._evaluate(batch, x)
+        evaluations = x.shape[1]
+        x, fit, used = self._honey_badger(batch, x, fit, rngs)
         evaluations += used
         history = []
+        every = np.arange(len(problems))
         for g in range(1, s.generations + 1):
             m_g = subpopulation_count(g, s.generations, s.m0, s.m_min, s.m_max)  # Eq. 16
-            groups = subpopulation_of(len(x), m_g)  # Eq. 15
+            groups = subpopulation_of(x.shape[1], m_g)  # Eq. 15
             # Eq. 17: best of every sub-population, the guide of its members in Eq. 12
             guide = np.empty_like(x)
             for a in range(m_g):
                 members = groups == a
-                guide[members] = x[members][fit[members].argmin()]
+                guide[:, members] = x[:, members][every, fit[:, members].argmin(axis=1)][:, None]
             a2 = alpha2(g, s.generations, s.alpha_max, s.alpha_min)  # Eq. 13
-            spread = 1.0 + fit.std() / max(abs(fit.mean()), 1e-12)  # Eq. 14
-            r7 = rng.random(x.shape) * spread
-            r8 = rng.random(x.shape) * spread
-            moved = x + a2 * r7 * (guide - x) + a2 * r8 * (rng.random(x.shape) - 0.5) * s.perturbation  # Eq. 12
+            spread = 1.0 + fit.std(axis=1) / np.maximum(np.abs(fit.mean(axis=1)), 1e-12)  # Eq. 14
+            draws = [(rng.random(x.shape[1:]), rng.random(x.shape[1:]), rng.random(x.shape[1:])) for rng in rngs]
+            r7, r8, r9 = (np.stack(d) for d in zip(*draws, strict=True))
+            r7, r8 = r7 * spread[:, None, None], r8 * spread[:, None, None]
+            moved = x + a2 * r7 * (guide - x) + a2 * r8 * (r9 - 0.5) * s.perturbation  # Eq. 12
             # Eq. 25-27: one gradient step with the decaying rate of Eq. 26, then back into the feasible set
-            pts = problem.points(moved, project=False)
+            pts = batch.points(moved, project=False)
             grad, cost = self._gradient(pts)
             if s.normalise == "point":
                 scale = np.sqrt(grad[..., 0:1] ** 2 + grad[..., 1:2] ** 2)
@@ -206,13 +251,19 @@ class NACOA:
             else:
                 scale = 1.0
             pts = pts - learning_rate(g, s.eta0, s.decay) * grad / np.maximum(scale, 1e-12)
-            moved, moved_fit = self._evaluate(problem, problem.displacement(pts))
-            evaluations += len(x) * (1 + cost)
+            moved, moved_fit = self._evaluate(batch, batch.displacement(pts))
+            evaluations += x.shape[1] * (1 + cost)
             better = moved_fit < fit
             x[better], fit[better] = moved[better], moved_fit[better]
             if g % s.exchange_every == 0:
-                exchange(x, fit, groups, rng)  # Eq. 19
-            history.append(float(fit.min()))  # Eq. 18
-        best = int(fit.argmin())
-        return SmoothingResult(points=problem.points(x[best]), objective=float(fit[best]), evaluations=evaluations,
-                               seconds=time.perf_counter() - start, history=history)
+                for k, rng in enumerate(rngs):
+                    exchange(x[k], fit[k], groups, rng)  # Eq. 19
+            history.append(fit.min(axis=1))  # Eq. 18
+        seconds = (time.perf_counter() - start) / len(problems)
+        trail = np.array(history).T.tolist() if history else [[] for _ in problems]
+        out = []
+        for k, problem in enumerate(problems):
+            best = int(fit[k].argmin())
+            out.append(SmoothingResult(points=problem.points(x[k, best]), objective=float(fit[k, best]),
+                                       evaluations=evaluations, seconds=seconds, history=trail[k]))
+        return out

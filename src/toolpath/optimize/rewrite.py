@@ -29,7 +29,7 @@ from toolpath.gcode.writer import fmt
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import moved_hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth
+from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth, smooth_nacoa_together
 
 MIN_POINTS = 5  # a stretch shorter than this has too few interior points to smooth
 DEFAULT_DECIMALS = {False: 3, True: 4}  # mm, inch: where a line gives no decimals of its own
@@ -209,21 +209,50 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
     decimals = decimals_of(program, flat)
     margins = rounding_margins(program, flat, decimals)
     bounds = np.cumsum([0] + [len(lines) for lines in moved_lines])
-    moved = []
-    for k, (r, a, b, record) in enumerate(progress(jobs)):
-        xy, lines = runs[r]
+    configs = []
+    for k, (r, a, _, _) in enumerate(jobs):
         margin = margins[bounds[k]:bounds[k + 1]].max()
         if options.tolerance - margin <= 0:
-            raise GCodeError(program.source, int(lines[a + 1]), f"the tolerance {options.tolerance} mm is finer "
-                             f"than this line's numbers can express ({margin:.2g} mm)")
-        cfg = {**options.smoothing, "tolerance": options.tolerance - margin}
-        result = smooth(xy[a:b + 1], record.method, cfg, "bound", options.seed + a, check=False)  # _verify checks
-        moved.append(result.points[1:-1])
-        record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
+            raise GCodeError(program.source, int(runs[r][1][a + 1]), f"the tolerance {options.tolerance} mm is "
+                             f"finer than this line's numbers can express ({margin:.2g} mm)")
+        configs.append({**options.smoothing, "tolerance": options.tolerance - margin})
+    moved: list[np.ndarray | None] = [None] * len(jobs)
+    for unit in progress(_units(jobs, configs)):
+        windows = [runs[r][0][a:b + 1] for r, a, b, _ in (jobs[k] for k in unit)]
+        first = jobs[unit[0]]
+        if first[3].method == "nacoa":  # windows of one length and tolerance, side by side
+            results = smooth_nacoa_together(windows, configs[unit[0]], "bound",
+                                            [options.seed + jobs[k][1] for k in unit])
+        else:  # _verify checks the result, after rounding
+            results = [smooth(windows[0], first[3].method, configs[unit[0]], "bound", options.seed + first[1],
+                              check=False)]
+        for k, result in zip(unit, results, strict=True):
+            _, a, b, record = jobs[k]
+            moved[k] = result.points[1:-1]
+            record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
     edits = _edits(program, flat, np.concatenate(moved) if moved else np.zeros((0, 2)), decimals)
     text = program.lines.joined(edits) if hasattr(program.lines, "joined") else \
         "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
     return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
+
+
+NACOA_TOGETHER = 32  # NACOA windows run side by side at most (a few MB of arrays)
+
+
+def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
+    """Jobs in the order they are run: one at a time, except NACOA's, which go side by side in groups of
+    one stretch length and tolerance (each keeps its own seed, so its result is the one it gets alone)."""
+    units, open_groups = [], {}
+    for k, (_, a, b, record) in enumerate(jobs):
+        if record.method != "nacoa":
+            units.append([k])
+            continue
+        key = (b - a, configs[k]["tolerance"])
+        if key not in open_groups or len(open_groups[key]) == NACOA_TOGETHER:
+            open_groups[key] = []
+            units.append(open_groups[key])
+        open_groups[key].append(k)
+    return units
 
 
 def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np.ndarray) -> dict[int, str]:
