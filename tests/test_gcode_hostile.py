@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from toolpath.gcode import GCodeError, ReaderOptions, read_file, read_text, replace_motion
 from toolpath.gcode.arcs import MAX_ARC_POINTS
 from toolpath.gcode.text import MAX_LINE_LENGTH, split_lines
-from toolpath.gcode.writer import fmt
+from toolpath.gcode.writer import fmt, fmt_many
 
 # --- correct results: line endings, BOM, program end ----------------------------------------------
 
@@ -116,6 +116,18 @@ def test_writer_refuses_non_finite_numbers(value):
     program = read_text("G1 X0 Y0 F100\nG1 X1 Y0\nG1 X2 Y0\n")
     with pytest.raises(GCodeError, match="non-finite"):
         replace_motion(program, [(2, 3, np.array([[1.0, value], [2.0, 0.0]]))])
+    with pytest.raises(ValueError, match="non-finite"):
+        fmt_many(np.array([1.0, value]), np.array([3, 3]))
+
+
+def test_many_numbers_are_written_as_one_at_a_time():
+    rng = np.random.default_rng(5)
+    values = np.r_[rng.normal(0, 100, 500), -0.0, 0.0, -0.0004, -0.0005, -0.00049999, 0.0005, -0.00005, -1e-12,
+                   0.0015, 2.675, -2.675, 1e9, -123.4565]
+    decimals = rng.choice([0, 1, 3, 4, 6], len(values))
+    expected = [fmt(v, int(d)) for v, d in zip(values.tolist(), decimals.tolist(), strict=True)]
+    assert fmt_many(values, decimals) == expected
+    assert fmt_many(np.array([-0.0004, -0.0006]), np.array([3, 3])) == ["0.000", "-0.001"]
 
 
 def test_replacement_keeps_a_lone_cr_line_ending():

@@ -30,6 +30,30 @@ def test_mean_filter_of_width_3_by_hand():
     assert mean_filter(pts, 3)[1:3].tolist() == [[1, 1], [2, 1]]  # (0+3+0)/3 and (3+0+0)/3
 
 
+def test_a_width_of_one_leaves_the_window_and_many_windows_filter_as_each_alone():
+    zz = zigzag(9)
+    assert mean_filter(zz, 1, passes=2) == pytest.approx(zz, abs=1e-15)  # once an empty slice and a crash
+    rng = np.random.default_rng(2)
+    many = zigzag()[None] + rng.normal(0, 0.02, (6, 50, 2))
+    for width, passes in ((3, 1), (5, 3), (7, 2)):
+        together = mean_filter(many, width, passes)
+        assert all(np.array_equal(together[k], mean_filter(many[k], width, passes)) for k in range(len(many)))
+
+
+@pytest.mark.parametrize("method", ["mean_filter", "nacoa", "bezier"])
+def test_windows_smoothed_together_get_what_each_gets_alone(method):
+    from toolpath.cli.smooth import SMOOTHING
+    from toolpath.optimize.methods import smooth, smooth_together
+
+    rng = np.random.default_rng(8)
+    windows = [zigzag(20) + rng.normal(0, 0.02, (20, 2)) for _ in range(4)]
+    cfg = {**SMOOTHING, "tolerance": 0.01, "nacoa": {**SMOOTHING["nacoa"], "generations": 6}}
+    together = smooth_together(windows, method, cfg, "bound", [3, 4, 5, 6])
+    for window, seed, result in zip(windows, [3, 4, 5, 6], together, strict=True):
+        alone = smooth(window, method, cfg, "bound", seed, check=False)
+        assert np.array_equal(alone.points, result.points) and alone.objective == result.objective
+
+
 def test_bezier_fit_keeps_a_line_and_follows_a_circular_arc():
     line = np.column_stack([np.linspace(0, 5, 30), np.linspace(0, 2, 30)])
     assert np.allclose(bezier_fit(line, degree=5), line)

@@ -51,6 +51,24 @@ def fmt(value: float, decimals: int) -> str:
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
+def fmt_many(values: np.ndarray, decimals: np.ndarray) -> list[str]:
+    """:func:`fmt` of every value with its own decimals, the same strings, in one pass per precision."""
+    values, decimals = np.asarray(values, np.float64), np.asarray(decimals, np.int64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if len(bad):
+        raise ValueError(f"cannot write the non-finite number {values[bad[0]]} as G-code")
+    out: list[str] = [""] * len(values)
+    for places in np.unique(decimals).tolist():
+        where = np.flatnonzero(decimals == places)
+        texts = [f"{v:.{places}f}" for v in values[where].tolist()]
+        # a negative value that rounds to zero prints as -0.000: fmt drops the sign
+        for k in np.flatnonzero((values[where] <= 0) & (values[where] > -(10.0 ** -places))).tolist():
+            texts[k] = fmt(float(values[where[k]]), places)
+        for index, text in zip(where.tolist(), texts, strict=True):
+            out[index] = text
+    return out
+
+
 def g1_moves(points: np.ndarray, decimals: int, first_prefix: str = "G1") -> list[str]:
     """``G1`` lines through ``points`` (k, 2|3), omitting axis words that do not change (modal)."""
     out, last = [], [None, None, None]

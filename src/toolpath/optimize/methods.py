@@ -23,7 +23,7 @@ import numpy as np
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.optimize.mealpy_runs import MEALPY_CLASSES, encoding_shift, run_mealpy
 from toolpath.optimize.nacoa import NACOA, NACOASettings, initial_population
-from toolpath.optimize.problem import SmoothingProblem
+from toolpath.optimize.problem import ProblemBatch, SmoothingProblem
 from toolpath.optimize.result import SmoothingResult
 from toolpath.optimize.smoothers import bezier_fit, mean_filter
 
@@ -76,12 +76,27 @@ def smooth(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int,
     return result
 
 
-def smooth_nacoa_together(windows: list[np.ndarray], cfg: Mapping, mode: str,
-                          seeds: list[int]) -> list[SmoothingResult]:
-    """``smooth(window, "nacoa", cfg, mode, seed, check=False)`` of each window, the windows (of one
-    length) run side by side (:meth:`NACOA.solve_many`: the same results, less overhead per window)."""
+TOGETHER = ("mean_filter", "nacoa")  # the methods :func:`smooth_together` runs on many windows at once
+
+
+def smooth_together(windows: list[np.ndarray], method: str, cfg: Mapping, mode: str,
+                    seeds: list[int]) -> list[SmoothingResult]:
+    """``smooth(window, method, cfg, mode, seed, check=False)`` of each window, with the same results:
+    windows of one length go through :data:`TOGETHER`'s methods side by side (one NumPy call per step
+    for all of them; NACOA keeps a generator per seed), every other method one window at a time."""
+    if method not in TOGETHER or len({len(w) for w in windows}) > 1:
+        return [smooth(w, method, cfg, mode, seed, check=False) for w, seed in zip(windows, seeds, strict=True)]
     problems = [problem_from(window, cfg, mode) for window in windows]
-    return NACOA(nacoa_settings(cfg, problems[0].tolerance)).solve_many(problems, seeds)
+    if method == "nacoa":
+        return NACOA(nacoa_settings(cfg, problems[0].tolerance)).solve_many(problems, seeds)
+    began = time.perf_counter()
+    batch = ProblemBatch(problems)
+    raw = mean_filter(batch.windows[:, 0], **cfg["mean_filter"])
+    points = batch.points(batch.displacement(raw[:, None]))[:, 0]
+    objectives = batch.score(points[:, None])[:, 0].tolist()
+    seconds = (time.perf_counter() - began) / len(windows)
+    return [SmoothingResult(points=p, objective=o, evaluations=1, seconds=seconds)
+            for p, o in zip(points, objectives, strict=True)]
 
 
 def _run(window: np.ndarray, method: str, cfg: Mapping, mode: str, seed: int, encoding: str) -> SmoothingResult:

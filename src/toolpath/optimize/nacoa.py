@@ -31,9 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from toolpath.geometry.curvature import fitness
 from toolpath.optimize.gradient import central_difference_gradient, fitness_gradient
-from toolpath.optimize.problem import SmoothingProblem, clip_displacement
+from toolpath.optimize.problem import ProblemBatch, SmoothingProblem
 from toolpath.optimize.result import SmoothingResult
 
 GRADIENTS = ("exact", "central", "off")
@@ -128,39 +127,6 @@ def initial_population(problem: SmoothingProblem, settings: NACOASettings, rng: 
     return x
 
 
-class _Windows:
-    """Several problems of one shape, mode and tolerance solved together: every array gains a leading
-    window axis, so one NumPy call serves the whole batch (the same arithmetic, element by element)."""
-
-    def __init__(self, problems: list[SmoothingProblem]) -> None:
-        first = problems[0]
-        if any((p.window.shape, p.mode, p.tolerance, p.weight) != (first.window.shape, first.mode, first.tolerance,
-                                                                   first.weight) for p in problems):
-            raise ValueError("problems solved together need one window length, mode, tolerance and weight")
-        self.windows = np.stack([p.window for p in problems])[:, None]  # (W, 1, n, 2)
-        self.mode, self.tolerance, self.weight = first.mode, first.tolerance, first.weight
-        self.dimension = first.dimension
-
-    def points(self, x: np.ndarray, project: bool = True) -> np.ndarray:
-        """:meth:`SmoothingProblem.points` of decision vectors (W, pop, dimension)."""
-        pts = np.broadcast_to(self.windows, (*x.shape[:-1], *self.windows.shape[-2:])).copy()
-        pts[..., 1:-1, :] += x.reshape(*x.shape[:-1], -1, 2)
-        if project and self.mode == "bound":
-            inner = self.windows[..., 1:-1, :]
-            pts[..., 1:-1, :] = inner + clip_displacement(pts[..., 1:-1, :] - inner, self.tolerance)
-        return pts
-
-    def score(self, pts: np.ndarray) -> np.ndarray:
-        value = fitness(pts)
-        if self.mode == "penalty":
-            moved = pts[..., 1:-1, :] - self.windows[..., 1:-1, :]
-            value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
-        return value
-
-    def displacement(self, points: np.ndarray) -> np.ndarray:
-        return (points[..., 1:-1, :] - self.windows[..., 1:-1, :]).reshape(*points.shape[:-2], -1)
-
-
 class NACOA:
     """Minimise a :class:`SmoothingProblem` from a seed; :meth:`solve` returns a :class:`SmoothingResult`.
     :meth:`solve_many` runs several windows side by side, each with its own seed: each result is the
@@ -177,12 +143,12 @@ class NACOA:
             return central_difference_gradient(points, s.eps), 2 * (points.shape[-2] - 2) * 2
         return np.zeros_like(points), 0
 
-    def _evaluate(self, batch: _Windows, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _evaluate(self, batch: ProblemBatch, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Feasible decision vectors (projected in ``bound`` mode) and their objective values."""
         points = batch.points(x)
         return batch.displacement(points), batch.score(points)
 
-    def _honey_badger(self, batch: _Windows, x, fit, rngs) -> tuple[np.ndarray, np.ndarray, int]:
+    def _honey_badger(self, batch: ProblemBatch, x, fit, rngs) -> tuple[np.ndarray, np.ndarray, int]:
         """Sec. 4.2.1: ``hba_generations`` of digging / foraging around the global best (Eq. 4-5, 11)."""
         s = self.settings
         count, pop, n_inner = x.shape[0], x.shape[1], batch.dimension // 2
@@ -219,7 +185,7 @@ class NACOA:
         """:meth:`solve` of each problem with its seed; the problems share window length, mode and tolerance."""
         s = self.settings
         start = time.perf_counter()
-        batch, rngs = _Windows(problems), [np.random.default_rng(seed) for seed in seeds]
+        batch, rngs = ProblemBatch(problems), [np.random.default_rng(seed) for seed in seeds]
         x = np.stack([initial_population(p, s, rng) for p, rng in zip(problems, rngs, strict=True)])
         x, fit = self._evaluate(batch, x)
         evaluations = x.shape[1]

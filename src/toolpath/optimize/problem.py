@@ -89,3 +89,37 @@ class SmoothingProblem:
     def displacement(self, points: np.ndarray) -> np.ndarray:
         """The decision vector that yields ``points`` (the inverse of :meth:`points` before projection)."""
         return (np.asarray(points)[..., 1:-1, :] - self.window[1:-1]).reshape(*np.shape(points)[:-2], -1)
+
+
+class ProblemBatch:
+    """Several problems of one window length, mode and tolerance solved together: every array gains a
+    leading window axis, so one NumPy call serves the whole batch (the same arithmetic, element by
+    element, as each :class:`SmoothingProblem` alone).  Decision vectors are (W, ..., dimension)."""
+
+    def __init__(self, problems: list[SmoothingProblem]) -> None:
+        first = problems[0]
+        if any((p.window.shape, p.mode, p.tolerance, p.weight) != (first.window.shape, first.mode, first.tolerance,
+                                                                   first.weight) for p in problems):
+            raise ValueError("problems solved together need one window length, mode, tolerance and weight")
+        self.windows = np.stack([p.window for p in problems])[:, None]  # (W, 1, n, 2)
+        self.mode, self.tolerance, self.weight = first.mode, first.tolerance, first.weight
+        self.dimension = first.dimension
+
+    def points(self, x: np.ndarray, project: bool = True) -> np.ndarray:
+        """:meth:`SmoothingProblem.points` of decision vectors (W, pop, dimension)."""
+        pts = np.broadcast_to(self.windows, (*x.shape[:-1], *self.windows.shape[-2:])).copy()
+        pts[..., 1:-1, :] += x.reshape(*x.shape[:-1], -1, 2)
+        if project and self.mode == "bound":
+            inner = self.windows[..., 1:-1, :]
+            pts[..., 1:-1, :] = inner + clip_displacement(pts[..., 1:-1, :] - inner, self.tolerance)
+        return pts
+
+    def score(self, pts: np.ndarray) -> np.ndarray:
+        value = fitness(pts)
+        if self.mode == "penalty":
+            moved = pts[..., 1:-1, :] - self.windows[..., 1:-1, :]
+            value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
+        return value
+
+    def displacement(self, points: np.ndarray) -> np.ndarray:
+        return (points[..., 1:-1, :] - self.windows[..., 1:-1, :]).reshape(*points.shape[:-2], -1)

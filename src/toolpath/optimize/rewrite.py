@@ -23,13 +23,15 @@ import numpy as np
 
 from toolpath.gcode.edit import axis_words, movable_lines, substitute_plain_xy, substitute_xy
 from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.program import Lines
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
-from toolpath.gcode.writer import fmt
+from toolpath.gcode.writer import fmt_many
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import moved_hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth, smooth_nacoa_together
+from toolpath.optimize.methods import TOGETHER as METHODS_TOGETHER
+from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth_together
 
 MIN_POINTS = 5  # a stretch shorter than this has too few interior points to smooth
 DEFAULT_DECIMALS = {False: 3, True: 4}  # mm, inch: where a line gives no decimals of its own
@@ -217,15 +219,11 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
                              f"finer than this line's numbers can express ({margin:.2g} mm)")
         configs.append({**options.smoothing, "tolerance": options.tolerance - margin})
     moved: list[np.ndarray | None] = [None] * len(jobs)
-    for unit in progress(_units(jobs, configs)):
+    for unit in progress(_units(jobs, configs)):  # _verify checks every result, after rounding
+        _, a, _, record = jobs[unit[0]]
         windows = [runs[r][0][a:b + 1] for r, a, b, _ in (jobs[k] for k in unit)]
-        first = jobs[unit[0]]
-        if first[3].method == "nacoa":  # windows of one length and tolerance, side by side
-            results = smooth_nacoa_together(windows, configs[unit[0]], "bound",
-                                            [options.seed + jobs[k][1] for k in unit])
-        else:  # _verify checks the result, after rounding
-            results = [smooth(windows[0], first[3].method, configs[unit[0]], "bound", options.seed + first[1],
-                              check=False)]
+        results = smooth_together(windows, record.method, configs[unit[0]], "bound",
+                                  [options.seed + jobs[k][1] for k in unit])
         for k, result in zip(unit, results, strict=True):
             _, a, b, record = jobs[k]
             moved[k] = result.points[1:-1]
@@ -236,19 +234,20 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
     return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
 
 
-NACOA_TOGETHER = 32  # NACOA windows run side by side at most (a few MB of arrays)
+TOGETHER = 32  # windows smoothed side by side at most (a few MB of NACOA's arrays)
 
 
 def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
-    """Jobs in the order they are run: one at a time, except NACOA's, which go side by side in groups of
-    one stretch length and tolerance (each keeps its own seed, so its result is the one it gets alone)."""
+    """Jobs in the order they are run: side by side in groups of one method, stretch length and tolerance
+    where the method allows it (:data:`toolpath.optimize.methods.TOGETHER`; each keeps its own seed,
+    so its result is the one it gets alone), else one at a time."""
     units, open_groups = [], {}
     for k, (_, a, b, record) in enumerate(jobs):
-        if record.method != "nacoa":
+        if record.method not in METHODS_TOGETHER:
             units.append([k])
             continue
-        key = (b - a, configs[k]["tolerance"])
-        if key not in open_groups or len(open_groups[key]) == NACOA_TOGETHER:
+        key = (record.method, b - a, configs[k]["tolerance"])
+        if key not in open_groups or len(open_groups[key]) == TOGETHER:
             open_groups[key] = []
             units.append(open_groups[key])
         open_groups[key].append(k)
@@ -261,10 +260,15 @@ def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np
     scale = np.where(states.inch[lines - 1], MM_PER_INCH, 1.0)
     values = (points - np.asarray(states.offsets)[states.offset_id[lines - 1]][:, :2]) / scale[:, None]
     plain = program.plain[lines - 1] if program.plain is not None else np.zeros(len(lines), bool)
+    numbers = fmt_many(values.ravel(), np.repeat(decimals, 2))
+    if isinstance(program.lines, Lines):  # slices of the text, taken at once
+        text, starts = program.lines.text, program.lines.starts
+        raws = [text[a:b] for a, b in zip(starts[lines - 1].tolist(), starts[lines].tolist(), strict=True)]
+    else:
+        raws = [program.lines[line - 1] for line in lines.tolist()]
     edits = {}
-    for line, (x, y), places, fast in zip(lines.tolist(), values.tolist(), decimals.tolist(), plain.tolist(),
-                                          strict=True):
-        raw, x_text, y_text = program.lines[line - 1], fmt(x, places), fmt(y, places)
+    for k, (line, raw, fast) in enumerate(zip(lines.tolist(), raws, plain.tolist(), strict=True)):
+        x_text, y_text = numbers[2 * k], numbers[2 * k + 1]
         edits[line] = substitute_plain_xy(raw, x_text, y_text) if fast else \
             substitute_xy(raw, {"X": x_text, "Y": y_text})
     return edits

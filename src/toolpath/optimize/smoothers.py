@@ -12,17 +12,20 @@ def mean_filter(window: np.ndarray, width: int = 3, passes: int = 1) -> np.ndarr
 
     Near the ends the window is extended by point reflection through its end points
     (``2 p_0 - p_k``), so a straight line with evenly spaced points is left exactly where it is.
+    ``window`` is (n, 2), or (..., n, 2) for many windows of one length at once (each filtered as alone).
     """
     if width < 1 or width % 2 == 0:
         raise ValueError(f"mean filter width must be odd and positive, got {width}")
     half = width // 2
     pts = np.asarray(window, dtype=np.float64).copy()
-    if half >= len(pts):
-        raise ValueError(f"mean filter width {width} is too wide for a window of {len(pts)} points")
+    if half >= pts.shape[-2]:
+        raise ValueError(f"mean filter width {width} is too wide for a window of {pts.shape[-2]} points")
     for _ in range(passes):
-        padded = np.vstack([2 * pts[0] - pts[half:0:-1], pts, 2 * pts[-1] - pts[-2 : -half - 2 : -1]])
-        smoothed = uniform_filter1d(padded, size=width, axis=0, mode="nearest")[half:-half]
-        pts[1:-1] = smoothed[1:-1]
+        first, last = pts[..., :1, :], pts[..., -1:, :]
+        padded = np.concatenate([2 * first - pts[..., half:0:-1, :], pts,
+                                 2 * last - pts[..., -2:-half - 2:-1, :]], axis=-2)
+        smoothed = uniform_filter1d(padded, size=width, axis=-2, mode="nearest")[..., half:padded.shape[-2] - half, :]
+        pts[..., 1:-1, :] = smoothed[..., 1:-1, :]
     return pts
 
 
