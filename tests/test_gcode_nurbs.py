@@ -93,3 +93,85 @@ def test_blocks_read_the_same_whole_line_by_line_and_in_parts():
     joined = first.then(rest)
     assert joined.points.tobytes() == whole.points.tobytes()
     assert np.array_equal(joined.lines_of_points, whole.lines_of_points)
+
+
+# --- G5.2 / G5.3, LinuxCNC's form ---------------------------------------------------------------
+
+LINUXCNC = """G21 G90
+G0 X0 Y0
+F10
+G5.2 X1 Y2 L3
+     X2 Y0
+G5.3
+G1 X3
+M2
+"""
+
+
+def test_a_g5_2_block_of_three_points_is_its_quadratic_bezier():
+    # three control points of order 3: knots 0 0 0 1 1 1, the Bezier x = 2t, y = 4t(1 - t), i.e.
+    # the parabola y = 2x - x^2 from (0, 0) through its top (1, 1) to (2, 0)
+    p = read_text(LINUXCNC, options=ReaderOptions(chord_tolerance=0.001))
+    curve = p.points[p.kinds == Motion.ARC][:, :2]
+    assert np.abs(curve[:, 1] - (2 * curve[:, 0] - curve[:, 0] ** 2)).max() < 1e-12
+    assert np.allclose(curve[-1], [2.0, 0.0]) and abs(curve[:, 1].max() - 1.0) < 1e-3
+    chords = np.vstack([[0.0, 0.0], curve])
+    x = np.linspace(0, 2, 20001)
+    assert _distance_to_polyline(np.c_[x, 2 * x - x ** 2], chords).max() <= 0.001 + 1e-9
+    assert set(p.lines_of_points[p.kinds == Motion.ARC]) == {6}  # the G5.3 line runs the curve
+    assert p.states[6].position == (2.0, 0.0, 0.0) and p.states[5].position == (0.0, 0.0, 0.0)
+    assert np.array_equal(p.points[-1], [3.0, 0.0, 0.0]) and p.states[7].feed == 10.0
+
+
+def test_the_linuxcnc_knots_and_weights():
+    from toolpath.gcode.nurbs import linuxcnc_knots
+
+    # nurbs_G5_knot_vector_creator: 5 control points (n = 4), order 3 -> 0 0 0 1 2 3 3 3
+    assert linuxcnc_knots(5, 3) == [0, 0, 0, 1, 2, 3, 3, 3] and linuxcnc_knots(2, 2) == [0, 0, 1, 1]
+    # weights: the same quarter circle as G6.2's, the first weight from a G5.2 line without X, Y
+    w = np.sqrt(0.5)
+    text = f"G0 X10 Y0\nG5.2 P1\nX10 Y10 P{w:.15f}\nX0 Y10 P1\nG5.3\n"
+    curve = read_text(text, options=ReaderOptions(chord_tolerance=0.002)).points[1:, :2]
+    assert np.abs(np.hypot(curve[:, 0], curve[:, 1]) - 10.0).max() < 1e-9 and np.allclose(curve[-1], [0, 10])
+
+
+@pytest.mark.parametrize("block, line, fragment", [
+    ("G5.2 X1 Y2\nX2 Y0\n", 2, "not closed by G5.3"),
+    ("G5.3\n", 2, "G5.3 without a G5.2"),
+    ("G5.2 X1 Y2\nX2 Y0 Z1\nG5.3\n", 3, "XY plane"),
+    ("G5.2 X1 Y2\nX2 Y0 M3\nG5.3\n", 3, "only X, Y, P"),
+    ("G5.2 X1 Y2\nG1 X2 Y0\nG5.3\n", 3, "G1"),
+    ("G5.2 X1 Y2 L11\nX2 Y0\nG5.3\n", 2, "whole number 2-10"),
+    ("G5.2 X1 Y2 L4\nX2 Y0\nG5.3\n", 4, "at least 4 control points"),
+    ("G5.2 X1 Y2\nX2 Y0 P0\nG5.3\n", 3, "must be positive"),
+    ("G5.2 X1 Y2\nX2 Y0\nG5.3 X4\n", 4, "line of its own"),
+    ("G91\nG5.2 X1 Y2\n", 3, "absolute coordinates"),
+    ("G5.2 X1 Y2\nX2 Y0\nG5.3\nX9\n", 5, "no motion mode in effect"),
+    ("G5.1 X1 I1 J1\n", 2, "only G5.2 / G5.3"),
+])
+def test_a_bad_g5_2_block_is_refused_with_its_line(block, line, fragment):
+    with pytest.raises(GCodeError, match=fragment) as caught:
+        read_text("G0 X0 Y0\n" + block, "part.nc")
+    assert f"part.nc:{line}:" in str(caught.value)
+
+
+def test_g5_2_blocks_read_the_same_whole_line_by_line_and_in_parts(tmp_path):
+    from toolpath.cli.smooth import DISPATCH, SMOOTHING
+    from toolpath.models.rule import LocalCurvatureRule
+    from toolpath.optimize.rewrite import RewriteOptions
+    from toolpath.optimize.stream import smooth_parts
+
+    text = LINUXCNC.replace("M2\n", "") + "G0 X0 Y0\n" + LINUXCNC.split("\n", 2)[2]
+    whole, slow = read_text(text), read_text(text, vectorise=False)
+    assert whole.points.tobytes() == slow.points.tobytes()  # the plain X Y lines are control points
+    lines = text.splitlines(keepends=True)
+    for cut in range(1, len(lines)):
+        reading = Reading()
+        joined = reading.read("".join(lines[:cut]), final=False).then(reading.read("".join(lines[cut:])))
+        assert joined.points.tobytes() == whole.points.tobytes()
+    # toolpath smooth in parts of a few bytes: the block is never cut, the output is the input
+    path = tmp_path / "g5.ngc"
+    path.write_text(text)
+    options = RewriteOptions(tolerance=0.01, smoothing=SMOOTHING, mapping=DISPATCH)
+    parts = list(smooth_parts(path, LocalCurvatureRule().predict, options, part_bytes=20))
+    assert "".join(part.result.text for part in parts) == text

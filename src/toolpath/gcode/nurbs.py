@@ -1,13 +1,20 @@
-"""NURBS motion (G6.2), as Fanuc-style controls and LinuxCNC-era CAM posts write it, turned into chords
-within the reader's chord tolerance.
+"""NURBS motion, in both forms CAM posts write, turned into chords within the reader's chord tolerance.
 
-A block starts with ``G6.2 P<order> K<knot> X.. Y.. [Z..] [R<weight>] [F..]`` (the first control point,
-which must be where the tool stands); each following line with a K word is either a control point
-(``K X Y [Z] [R]``, missing axes modal from the previous point, weight 1 by default) or, at the end, a
-bare knot (``K``).  The first line with words but no K ends the block, as does the end of the program.
-There are ``control points + order`` knots, non-decreasing; the curve runs over
-``[knot[order - 1], knot[n]]``.  The block's points belong to its last K line; afterwards no motion
-mode is in effect (the next move must say G0/G1/G2/G3).  Absolute coordinates (G90) only.
+**G5.2 / G5.3 (LinuxCNC).**  ``G5.2 [X.. Y..] [P<weight>] [L<order>]`` opens a block whose first control
+point is where the tool stands (weight 1, or the P of a ``G5.2 P..`` line without X and Y); each line
+``X.. Y.. [P..]`` after it adds a control point (a missing axis modal from the previous point, weight
+1 by default); ``G5.3`` closes the block and runs the curve.  The order L is 3 unless given (2-10).
+The knots are LinuxCNC's (``nurbs_G5_knot_vector_creator``): clamped and uniform, ``order`` zeros,
+then 1, 2, .., ``n - order + 1``, then ``order`` times ``n - order + 2`` for control points 0..n, so
+the curve runs from the first control point to the last.  XY plane, absolute coordinates (G90).
+
+**G6.2 (Fanuc style).** A block starts with ``G6.2 P<order> K<knot> X.. Y.. [Z..] [R<weight>] [F..]``
+(the first control point, which must be where the tool stands); each following line with a K word is
+either a control point (``K X Y [Z] [R]``, missing axes modal from the previous point, weight 1 by
+default) or, at the end, a bare knot (``K``). The first line with words but no K ends the block, as does
+the end of the program. There are ``control points + order`` knots, non-decreasing; the curve runs over
+``[knot[order - 1], knot[n]]``. The block's points belong to its last K line; afterwards no motion mode
+is in effect (the next move must say G0/G1/G2/G3), after either form. Absolute coordinates (G90) only.
 """
 
 from __future__ import annotations
@@ -30,6 +37,14 @@ class NurbsBlock:
     weights: list[float] = field(default_factory=list)
     knots: list[float] = field(default_factory=list)
     last_line: int = 0
+    kind: str = "G6.2"  # or "G5.2"
+    closed: bool = False  # a G5.2 block: its G5.3 was read
+
+
+def linuxcnc_knots(count: int, order: int) -> list[float]:
+    """The knots LinuxCNC gives a G5.2 block of ``count`` control points: clamped, uniform, whole."""
+    n = count - 1
+    return [0.0] * order + [float(i) for i in range(1, n - order + 2)] + [float(n - order + 2)] * order
 
 
 def _chord_gaps(curve, t: np.ndarray) -> np.ndarray:
@@ -90,7 +105,7 @@ def discretise(block: NurbsBlock, chord_tolerance: float) -> np.ndarray:
 
 
 class NurbsMotion:
-    """The reader's handling of G6.2 blocks (mixed into its interpreter, whose state it uses)."""
+    """The reader's handling of G5.2 and G6.2 blocks (mixed into its interpreter, whose state it uses)."""
 
     def _open_nurbs(self, motion: int | None, values: dict[str, float], lineno: int) -> None:
         """``G6.2 P<order> K X Y [Z] [R]``: the first control point, where the tool stands."""
@@ -140,14 +155,74 @@ class NurbsMotion:
         else:
             block.knots.append(values["K"])
 
+    def _open_g5(self, motion: int | None, values: dict[str, float], lineno: int) -> None:
+        """``G5.2 [X Y] [P] [L]``: a LinuxCNC NURBS block, from where the tool stands."""
+        if motion is not None:
+            raise self.fail(lineno, f"G5.2 and G{motion} on one line")
+        if not self.absolute:
+            raise self.fail(lineno, "G5.2 (NURBS) needs absolute coordinates (G90)")
+        order = values.get("L", 3.0)
+        if order != int(order) or not 2 <= order <= 10:
+            raise self.fail(lineno, f"G5.2 L{order:g}: the order of the NURBS must be a whole number 2-10")
+        self.nurbs = NurbsBlock(int(order), lineno, last_line=lineno, kind="G5.2")
+        self.motion = None
+        placed = "X" in values or "Y" in values
+        self.nurbs.points.append(self.pos.copy())
+        self.nurbs.weights.append(1.0 if placed else self._g5_weight(values, lineno))
+        if placed:
+            self._g5_point(values, lineno)
+        elif "Z" in values:
+            raise self.fail(lineno, "a G5.2 NURBS lies in the XY plane: no Z inside the block")
+
+    def _g5_weight(self, values: dict[str, float], lineno: int) -> float:
+        weight = values.get("P", 1.0)
+        if not weight > 0:
+            raise self.fail(lineno, f"NURBS weight P{weight:g} must be positive")
+        return weight
+
+    def _g5_point(self, values: dict[str, float], lineno: int) -> None:
+        if "Z" in values:
+            raise self.fail(lineno, "a G5.2 NURBS lies in the XY plane: no Z inside the block")
+        scale, point = MM_PER_INCH if self.inch else 1.0, self.nurbs.points[-1].copy()
+        for i, a in enumerate("XY"):
+            if a in values:
+                point[i] = values[a] * scale + self.offset[i]
+        self.nurbs.points.append(point)
+        self.nurbs.weights.append(self._g5_weight(values, lineno))
+
+    def _g5_line(self, words, lineno: int) -> None:  # noqa: ANN001 - the line's words
+        """A line of a G5.2 block: ``X Y [P]`` (a control point) or ``G5.3`` (the end: the curve runs)."""
+        values = {w.letter: w.value for w in words if w.letter != "G"}
+        codes = [round(w.value, 1) for w in words if w.letter == "G"]
+        extra = sorted({w.letter for w in words} - set("XYZPNFG"))
+        if extra or any(code != 5.3 for code in codes):
+            raise self.fail(lineno, "a G5.2 block line holds only X, Y, P (N, F) words, and G5.3 ends it; not "
+                                    + ", ".join(extra + [f"G{code:g}" for code in codes if code != 5.3]))
+        if "F" in values:
+            self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
+        if codes:
+            if any(a in values for a in "XYZP"):
+                raise self.fail(lineno, "G5.3 ends the NURBS block on a line of its own (no X, Y, P)")
+            block = self.nurbs
+            block.last_line, block.closed = lineno, True
+            block.knots = linuxcnc_knots(len(block.points), block.order)
+            self.close_nurbs(lineno)
+        elif "X" in values or "Y" in values:
+            self._g5_point(values, lineno)
+        elif values.keys() - {"N", "F"}:
+            raise self.fail(lineno, "a G5.2 control point needs X or Y")
+
     def close_nurbs(self, last_row: int) -> None:
-        """End the open G6.2 block: its chords become points of its last K line; the rows of the text
-        being read from that line to ``last_row`` (program line numbers) get the curve's end."""
+        """End the open block: its chords become points of its last line (the last K line, or G5.3);
+        the rows of the text being read from that line to ``last_row`` (program line numbers) get the
+        curve's end."""
         block, self.nurbs = self.nurbs, None
+        if block.kind == "G5.2" and not block.closed:
+            raise self.fail(block.first_line, "the G5.2 block that starts here is not closed by G5.3")
         try:
             pts = discretise(block, self.opt.chord_tolerance)
         except ValueError as exc:
-            raise self.fail(block.last_line, f"G6.2 block from line {block.first_line}: {exc}") from None
+            raise self.fail(block.last_line, f"{block.kind} block from line {block.first_line}: {exc}") from None
         if len(pts):
             self._emit(pts, Motion.ARC, block.last_line)
             self.pos = pts[-1].copy()

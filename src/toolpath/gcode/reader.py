@@ -2,14 +2,14 @@
 
 Supported: LinuxCNC's numbered and named parameters and ``[ ]`` expressions
 (:mod:`toolpath.gcode.expressions`), G0/G1/G2/G3 (arcs by I/J or R, both directions, full circles, helices, P turns),
-G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion
-and modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``,
-block delete ``/``, tabs, LF, CRLF and lone-CR line ends and a UTF-8 BOM; G28/G30 returns to their
-stored positions (G28.1/G30.1 store them); G6.2 NURBS blocks (:mod:`toolpath.gcode.nurbs`), discretised
-within the chord tolerance.  Work offsets (G54-G59), tool length offsets (G43/G49) and
-path-control modes (G61/G64) are accepted and do not move the XY path.  After M2 or M30 the
-program has ended, as on a controller: later lines are kept in ``Program.lines`` but not read; so
-after a ``%`` that closes the program (any ``%`` but a leading one).
+G17, G20/G21 (points are always returned in mm), G90/G91, G90.1/G91.1, G92 offsets, modal motion and
+modal coordinates (also before any G word), F/S/T/M/H/D words, N words, comments, ``%``, block delete
+``/``, tabs, LF, CRLF and lone-CR line ends and a UTF-8 BOM; G28/G30 returns to their stored positions
+(G28.1/G30.1 store them); NURBS blocks, LinuxCNC's G5.2/G5.3 and G6.2 (:mod:`toolpath.gcode.nurbs`),
+discretised within the chord tolerance. Work offsets (G54-G59), tool length offsets (G43/G49) and
+path-control modes (G61/G64) are accepted and do not move the XY path. After M2 or M30 the program has
+ended, as on a controller: later lines are kept in ``Program.lines`` but not read; so after a ``%`` that
+closes the program (any ``%`` but a leading one).
 
 Limits, properties of the program rather than of the machine: a line of at most 4096 characters
 (:data:`toolpath.gcode.text.MAX_LINE_LENGTH`), word values of magnitude at most 1e9
@@ -19,7 +19,7 @@ the chord tolerance), a program of at most 20 million points (:data:`MAX_POINTS`
 whole numbers 0-199, G words have one decimal at most, an arc's P is a whole number >= 1.
 
 Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, O-words,
-splines (G5.x), cutter compensation (G41/G42), canned cycles (G73-G89), G53
+G5/G5.1 splines, cutter compensation (G41/G42), canned cycles (G73-G89), G53
 and every malformed word.
 """
 
@@ -68,7 +68,7 @@ class ReaderOptions:
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
 _ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
 _REJECTED_G = {
-    5: "splines (G5.x) are not supported", 6: "of the G6 group only G6.2 (NURBS) is supported",
+    5: "of the G5 group only G5.2 / G5.3 (NURBS) are supported", 6: "of the G6 group only G6.2 (NURBS) is supported",
     18: "only the XY plane (G17) is supported, not G18", 19: "only the XY plane (G17) is supported, not G19",
     41: "cutter compensation (G41) is not supported", 42: "cutter compensation (G42) is not supported",
     53: "machine coordinates (G53) are not supported",
@@ -94,8 +94,8 @@ class _Interpreter(NurbsMotion):
         self.ended = False
         self.started = False  # a line with words (or a '%') has been seen
         self.params = Parameters()
-        self.nurbs: NurbsBlock | None = None  # a G6.2 block being read
-        self.table: StateTable | None = None  # the rows of the text being read, for a closing G6.2 block
+        self.nurbs: NurbsBlock | None = None  # a NURBS block being read
+        self.table: StateTable | None = None  # the rows of the text being read, for a closing NURBS block
         self.text = ""  # the text being read, for the lines run_plain hands to run_block
         self.base = 0  # lines of the program before that text: line numbers are the program's
         # per emitted block: its points (k, 3), their kinds and lines, concatenated at the end
@@ -123,8 +123,10 @@ class _Interpreter(NurbsMotion):
                 if motion is not None:
                     raise self.fail(lineno, "two motion G words on one line")
                 motion = major
-            elif code == 6.2:  # NURBS (toolpath.gcode.nurbs)
+            elif code in (5.2, 6.2):  # NURBS (toolpath.gcode.nurbs)
                 others.append(code)
+            elif code == 5.3:
+                raise self.fail(lineno, "G5.3 without a G5.2 block to end")
             elif major in _REJECTED_G:
                 raise self.fail(lineno, _REJECTED_G[major])
             elif code == major and major in _CANNED:
@@ -148,6 +150,10 @@ class _Interpreter(NurbsMotion):
             return
         for key, value in block.assignments:  # after every value on the line was read with the old ones
             self.params.set(key, value)
+        if self.nurbs is not None and self.nurbs.kind == "G5.2":
+            if block.words:
+                self._g5_line(block.words, lineno)
+            return
         if self.nurbs is not None:
             if any(w.letter == "K" for w in block.words):
                 self._nurbs_line(block.words, lineno)
@@ -194,6 +200,9 @@ class _Interpreter(NurbsMotion):
         if 6.2 in others:
             self._open_nurbs(motion, values, lineno)
             return
+        if 5.2 in others:
+            self._open_g5(motion, values, lineno)
+            return
         if 92 in others or 92.1 in others or 92.2 in others:
             self._set_offset(others, values)
             return
@@ -213,7 +222,7 @@ class _Interpreter(NurbsMotion):
                 raise self.fail(lineno, f"G{motion} without an end point")
             return
         if self.motion is None:
-            raise self.fail(lineno, "axis words with no motion mode in effect (after G80 or a G6.2 block)")
+            raise self.fail(lineno, "axis words with no motion mode in effect (after G80 or a NURBS block)")
         self._move(values, lineno)
 
     def _home(self, values: dict[str, float], first: int, lineno: int) -> None:

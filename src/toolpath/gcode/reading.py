@@ -94,6 +94,9 @@ class Reading:
             if interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
                 states.fill(first + 1, count + 1, first)
                 break
+            if plain[first] and interp.nurbs is not None and interp.nurbs.kind == "G5.2":
+                self._interpret(lines, first, stop)  # X Y lines are control points until G5.3
+                continue
             if plain[first] and interp.nurbs is not None:  # the first line with words ends the G6.2 block
                 worded = np.flatnonzero(lines.words[first:stop])
                 closing = first + int(worded[0]) + 1 if len(worded) else stop

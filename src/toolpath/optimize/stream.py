@@ -7,13 +7,13 @@ part (nothing is read twice), so every window is the window the whole program wo
 run's windows are counted from its start, 50 points each).  Memory is that of a part, whatever
 the length of the program.
 
-Where a window boundary falls inside a line's points (an arc's chords), the window before it waits
-too, so the next part still starts on a window's first point.  Where this cannot be exact, it says
-so here: lines that would wait but set a parameter (``#1 = ..``), G28.1 / G30.1 or G90.1 / G91.1,
-or hold a G6.2 NURBS line, do not wait (their effect could not be replayed), and the next part
-starts its windows afresh; a part never ends inside a G6.2 block.  The machining time plans each
-part's feed runs from rest to rest, so a run longer than a part is timed in pieces, before and
-after alike.
+Where a window boundary falls inside a line's points (an arc's chords), the window before it waits too,
+so the next part still starts on a window's first point. Where this cannot be exact, it says so here:
+lines that would wait but set a parameter (``#1 = ..``), G28.1 / G30.1 or G90.1 / G91.1, or hold a NURBS
+line (G6.2 and its K lines, G5.2 / G5.3), do not wait (their effect could not be replayed), and the next
+part starts its windows afresh; a part never ends inside a NURBS block. The machining time plans each
+part's feed runs from rest to rest, so a run longer than a part is timed in pieces, before and after
+alike.
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
 _STATEFUL = re.compile(r"#\s*(?:[\d.]+|<[^>]*>)\s*="  # a parameter set
-                       r"|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1|[gG]\s*0*6\s*\.\s*2"  # stored positions, arc centres, NURBS
+                       r"|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1"  # stored positions, arc centres
+                       r"|[gG]\s*0*(?:6\s*\.\s*2|5\s*\.\s*[23])"  # NURBS
                        r"|^\s*(?:[nN][\d.]+\s*)?[kK]", re.MULTILINE)  # a line of a NURBS block
 
 
@@ -96,7 +97,7 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
     while text is not None:
         following = next(parts, None)
         program = reading.read(text, final=following is None)
-        while reading.interp.nurbs is not None and following is not None:  # a G6.2 block runs on: read on
+        while reading.interp.nurbs is not None and following is not None:  # a NURBS block runs on: read on
             text, following = following, next(parts, None)
             program = program.then(reading.read(text, final=following is None))
         if waiting is not None:
