@@ -204,8 +204,13 @@ def test_cli_writes_the_program_and_a_json_report(rough_file, tmp_path):
     assert out.stat().st_mode & 0o777 == 0o666 & ~umask  # a plain new file, not mkstemp's private one
     html = tmp_path / "r.html"
     assert _run(rough_file, "-o", tmp_path / "out2.nc", "--report", html, "--method", "mean").returncode == 0
-    assert "<svg" in html.read_text()
+    assert "<svg" in html.read_text() and "{&#x27;" not in html.read_text()  # no Python dict shown as is
     assert (tmp_path / "out2.nc").read_bytes() == out.read_bytes()  # same seed, same bytes
+    again = tmp_path / "r2.html"
+    done = _run(rough_file, "-o", tmp_path / "out2.nc", "--force", "--report", again, "--method", "mean")
+    assert done.returncode == 0
+    assert again.read_bytes() == html.read_bytes()  # the drawing too: no date, fixed element ids
+    assert len(report.read_text().splitlines()) > len(data["window_rows"])  # one line per window row at least
 
 
 def test_cli_in_place_keeps_a_backup(rough_file):

@@ -90,9 +90,10 @@ def write_plot(path: Path, result) -> None:
 def _figure_svg(result, windows) -> str:
     import matplotlib.pyplot as plt
 
-    fig = _figure(result, windows)
-    out = io.StringIO()
-    fig.savefig(out, format="svg", bbox_inches="tight")
+    with plt.rc_context({"svg.hashsalt": "toolpath smooth"}):  # fixed element ids: the same bytes every run
+        fig = _figure(result, windows)
+        out = io.StringIO()
+        fig.savefig(out, format="svg", bbox_inches="tight", metadata={"Date": None})
     plt.close(fig)
     return out.getvalue()
 
@@ -124,6 +125,15 @@ def _figure(result, windows):
     return fig
 
 
+def _cell(value) -> str:
+    """A report value as a table cell reads it: a mapping as ``key: value; ..``, a list comma-separated."""
+    if isinstance(value, dict):
+        return "; ".join(f"{k}: {_cell(v)}" for k, v in value.items()) or "none"
+    if isinstance(value, list | tuple):
+        return ", ".join(_cell(v) for v in value) or "none"
+    return str(value)
+
+
 def _html(report: dict, result) -> str:
     e = html.escape
     head = {k: v for k, v in report.items() if k not in ("window_rows", "windows", "machining_time_s", "arcs")}
@@ -134,7 +144,7 @@ def _html(report: dict, result) -> str:
         f"<tr><td>{w['first_line']}-{w['last_line']}</td><td>{w['category']}</td><td>{e(w['method'])}</td>"
         f"<td>{w['curvature_before']:.3f}</td><td>{w['curvature_after']:.3f}</td><td>{w['deviation_mm']:.4f}</td>"
         f"<td>{w['lines_changed']}</td><td>{e(w['status'])}</td></tr>" for w in report["window_rows"])
-    facts = "".join(f"<tr><th>{e(str(k))}</th><td>{e(str(v))}</td></tr>" for k, v in
+    facts = "".join(f"<tr><th>{e(str(k))}</th><td>{e(_cell(v))}</td></tr>" for k, v in
                     {**head, **report["windows"], "time before (s)": t["before"], "time after (s)": t["after"],
                      "time saved (%)": t["saved_pct"]}.items())
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>toolpath smooth: {e(report['input'])}</title>"
