@@ -1,5 +1,5 @@
-"""G6.2 NURBS blocks: hand cases (a Bezier arc, an exact quarter circle), errors with their lines,
-and the same points whether a program is read whole, line by line or in parts."""
+"""NURBS blocks, G6.2 and LinuxCNC's G5.2 / G5.3: hand cases (Bezier arcs, an exact quarter circle),
+errors with their lines, and the same points whether a program is read whole, line by line or in parts."""
 
 from __future__ import annotations
 
@@ -70,6 +70,18 @@ def test_a_rational_quadratic_draws_an_exact_quarter_circle():
     ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5 R0\n", 3, "must be positive"),
     ("G6.2 P3 K0 X0 Y0\nK0 X0 Y5\nK0 X5 Y5\nK1\nK1\nK1\nX9\n", 8, "no motion mode in effect"),
     ("G6.1 X1\n", 2, "only G6.2"),
+    ("G5.2 X1 Y2\nX2 Y0\n", 2, "not closed by G5.3"),
+    ("G5.3\n", 2, "G5.3 without a G5.2"),
+    ("G5.2 X1 Y2\nX2 Y0 Z1\nG5.3\n", 3, "XY plane"),
+    ("G5.2 X1 Y2\nX2 Y0 M3\nG5.3\n", 3, "only X, Y, P"),
+    ("G5.2 X1 Y2\nG1 X2 Y0\nG5.3\n", 3, "G1"),
+    ("G5.2 X1 Y2 L11\nX2 Y0\nG5.3\n", 2, "whole number 2-10"),
+    ("G5.2 X1 Y2 L4\nX2 Y0\nG5.3\n", 4, "at least 4 control points"),
+    ("G5.2 X1 Y2\nX2 Y0 P0\nG5.3\n", 3, "must be positive"),
+    ("G5.2 X1 Y2\nX2 Y0\nG5.3 X4\n", 4, "line of its own"),
+    ("G91\nG5.2 X1 Y2\n", 3, "absolute coordinates"),
+    ("G5.2 X1 Y2\nX2 Y0\nG5.3\nX9\n", 5, "no motion mode in effect"),
+    ("G5.1 X1 I1 J1\n", 2, "only G5.2 / G5.3"),
 ])
 def test_a_bad_block_is_refused_with_its_line(block, line, fragment):
     with pytest.raises(GCodeError, match=fragment) as caught:
@@ -133,26 +145,6 @@ def test_the_linuxcnc_knots_and_weights():
     text = f"G0 X10 Y0\nG5.2 P1\nX10 Y10 P{w:.15f}\nX0 Y10 P1\nG5.3\n"
     curve = read_text(text, options=ReaderOptions(chord_tolerance=0.002)).points[1:, :2]
     assert np.abs(np.hypot(curve[:, 0], curve[:, 1]) - 10.0).max() < 1e-9 and np.allclose(curve[-1], [0, 10])
-
-
-@pytest.mark.parametrize("block, line, fragment", [
-    ("G5.2 X1 Y2\nX2 Y0\n", 2, "not closed by G5.3"),
-    ("G5.3\n", 2, "G5.3 without a G5.2"),
-    ("G5.2 X1 Y2\nX2 Y0 Z1\nG5.3\n", 3, "XY plane"),
-    ("G5.2 X1 Y2\nX2 Y0 M3\nG5.3\n", 3, "only X, Y, P"),
-    ("G5.2 X1 Y2\nG1 X2 Y0\nG5.3\n", 3, "G1"),
-    ("G5.2 X1 Y2 L11\nX2 Y0\nG5.3\n", 2, "whole number 2-10"),
-    ("G5.2 X1 Y2 L4\nX2 Y0\nG5.3\n", 4, "at least 4 control points"),
-    ("G5.2 X1 Y2\nX2 Y0 P0\nG5.3\n", 3, "must be positive"),
-    ("G5.2 X1 Y2\nX2 Y0\nG5.3 X4\n", 4, "line of its own"),
-    ("G91\nG5.2 X1 Y2\n", 3, "absolute coordinates"),
-    ("G5.2 X1 Y2\nX2 Y0\nG5.3\nX9\n", 5, "no motion mode in effect"),
-    ("G5.1 X1 I1 J1\n", 2, "only G5.2 / G5.3"),
-])
-def test_a_bad_g5_2_block_is_refused_with_its_line(block, line, fragment):
-    with pytest.raises(GCodeError, match=fragment) as caught:
-        read_text("G0 X0 Y0\n" + block, "part.nc")
-    assert f"part.nc:{line}:" in str(caught.value)
 
 
 def test_g5_2_blocks_read_the_same_whole_line_by_line_and_in_parts(tmp_path):

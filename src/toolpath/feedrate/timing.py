@@ -59,16 +59,16 @@ def vertex_intervals(s: np.ndarray, limit: np.ndarray, feed: float) -> tuple[np.
     return start[first], end[last], speed[first], sensitive[first]
 
 
+def _ramps(left: np.ndarray, right: np.ndarray, v: np.ndarray, A: float, J: float) -> np.ndarray:
+    """Distance an interval at speed ``v`` needs to ramp from and to its slower neighbours."""
+    return (np.where(left < v, ramp_distance(left, v, A, J), 0.0)
+            + np.where(right < v, ramp_distance(right, v, A, J), 0.0))
+
+
 def _excess(left: np.ndarray, right: np.ndarray, space: np.ndarray, A: float, J: float):
     """``excess(v, which)``: the ramps interval ``which`` needs at speed ``v`` beyond its room (increasing
     in ``v``; the new speed is its root)."""
-
-    def excess(v: np.ndarray, which: np.ndarray) -> np.ndarray:
-        slower_left, slower_right = left[which], right[which]
-        return (np.where(slower_left < v, ramp_distance(slower_left, v, A, J), 0.0)
-                + np.where(slower_right < v, ramp_distance(slower_right, v, A, J), 0.0)) - space[which]
-
-    return excess
+    return lambda v, which: _ramps(left[which], right[which], v, A, J) - space[which]
 
 
 def _largest_fitting(excess, lo: np.ndarray, hi: np.ndarray, below: np.ndarray, above: np.ndarray):
@@ -105,11 +105,6 @@ def fit_speeds(lengths: np.ndarray, limits: np.ndarray, machine: Machine) -> np.
     speeds = np.concatenate([[0.0], limits, [0.0]])  # the path starts and ends at rest
     room = np.concatenate([[0.0], lengths, [0.0]])
 
-    def need(k: np.ndarray, v: np.ndarray) -> np.ndarray:
-        left, right = speeds[k - 1], speeds[k + 1]
-        return (np.where(left < v, ramp_distance(left, v, A, J), 0.0)
-                + np.where(right < v, ramp_distance(right, v, A, J), 0.0))
-
     n = len(speeds)
     active = np.zeros(n, bool)
     active[1:-1] = True
@@ -117,7 +112,8 @@ def fit_speeds(lengths: np.ndarray, limits: np.ndarray, machine: Machine) -> np.
         for parity in (0, 1):  # odd and even intervals in turn: a change is seen by its neighbours at once
             candidates = np.flatnonzero(active[parity::2]) * 2 + parity
             active[candidates] = False
-            over = candidates[need(candidates, speeds[candidates]) > room[candidates] * (1 + 1e-12) + 1e-12]
+            need = _ramps(speeds[candidates - 1], speeds[candidates + 1], speeds[candidates], A, J)
+            over = candidates[need > room[candidates] * (1 + 1e-12) + 1e-12]
             if not len(over):
                 continue
             left, right, space = speeds[over - 1], speeds[over + 1], room[over]

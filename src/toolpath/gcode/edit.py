@@ -151,8 +151,10 @@ def substitute_plain_xy(line: str, x: str, y: str) -> str:
     return substitute_xy(line, {"X": x, "Y": y})
 
 
-def program_coordinates(program: Program, lineno: int, xy_mm: np.ndarray) -> np.ndarray:
-    """A point (mm, reader frame) as the X/Y numbers line ``lineno`` would write in absolute mode."""
-    row = lineno - 1
-    scale = MM_PER_INCH if program.states.inch[row] else 1.0
-    return (np.asarray(xy_mm, float) - np.asarray(program.states.offsets[program.states.offset_id[row]][:2])) / scale
+def program_coordinates(program: Program, lineno, xy_mm: np.ndarray) -> np.ndarray:  # noqa: ANN001 - int or array
+    """A point (mm, reader frame) as the X/Y numbers line ``lineno`` would write in absolute mode; or many
+    points (k, 2), one per line of the array ``lineno``."""
+    row = np.asarray(lineno, np.int64) - 1
+    scale = np.where(program.states.inch[row], MM_PER_INCH, 1.0)
+    offset = np.asarray(program.states.offsets)[program.states.offset_id[row]][..., :2]
+    return (np.asarray(xy_mm, float) - offset) / scale[..., None]

@@ -21,9 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from toolpath.gcode.edit import axis_words, movable_lines, substitute_plain_xy, substitute_xy
+from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_plain_xy, substitute_xy
 from toolpath.gcode.errors import GCodeError
-from toolpath.gcode.program import Lines
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt_many
@@ -229,12 +228,11 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             moved[k] = result.points[1:-1]
             record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
     edits = _edits(program, flat, np.concatenate(moved) if moved else np.zeros((0, 2)), decimals)
-    text = program.lines.joined(edits) if hasattr(program.lines, "joined") else \
-        "".join(edits.get(i + 1, raw) for i, raw in enumerate(program.lines))
+    text = program.lines.joined(edits)
     return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
 
 
-TOGETHER = 32  # windows smoothed side by side at most (a few MB of NACOA's arrays)
+MOST_AT_ONCE = 32  # windows smoothed side by side at most (a few MB of NACOA's arrays)
 
 
 def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
@@ -247,7 +245,7 @@ def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
             units.append([k])
             continue
         key = (record.method, b - a, configs[k]["tolerance"])
-        if key not in open_groups or len(open_groups[key]) == TOGETHER:
+        if key not in open_groups or len(open_groups[key]) == MOST_AT_ONCE:
             open_groups[key] = []
             units.append(open_groups[key])
         open_groups[key].append(k)
@@ -256,16 +254,11 @@ def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
 
 def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np.ndarray) -> dict[int, str]:
     """The new text of each moved line: its X/Y numbers, in its own frame and units, at its precision."""
-    states = program.states
-    scale = np.where(states.inch[lines - 1], MM_PER_INCH, 1.0)
-    values = (points - np.asarray(states.offsets)[states.offset_id[lines - 1]][:, :2]) / scale[:, None]
+    values = program_coordinates(program, lines, points)
     plain = program.plain[lines - 1] if program.plain is not None else np.zeros(len(lines), bool)
     numbers = fmt_many(values.ravel(), np.repeat(decimals, 2))
-    if isinstance(program.lines, Lines):  # slices of the text, taken at once
-        text, starts = program.lines.text, program.lines.starts
-        raws = [text[a:b] for a, b in zip(starts[lines - 1].tolist(), starts[lines].tolist(), strict=True)]
-    else:
-        raws = [program.lines[line - 1] for line in lines.tolist()]
+    text, starts = program.lines.text, program.lines.starts  # slices of the text, taken at once
+    raws = [text[a:b] for a, b in zip(starts[lines - 1].tolist(), starts[lines].tolist(), strict=True)]
     edits = {}
     for k, (line, raw, fast) in enumerate(zip(lines.tolist(), raws, plain.tolist(), strict=True)):
         x_text, y_text = numbers[2 * k], numbers[2 * k + 1]
