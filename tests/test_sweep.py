@@ -6,6 +6,7 @@ import shutil
 import subprocess
 import sys
 import time
+import warnings
 
 import mlflow
 import optuna
@@ -157,6 +158,35 @@ def test_separate_launches_on_one_study_sample_with_their_own_seeds(sweep_dir):
     trials = optuna.load_study(study_name="mcrl-gear", storage=f"sqlite:///{sweep_dir}/optuna.db").trials
     sampled = [tuple(sorted(t.params.items())) for t in trials if not t.user_attrs.get("default_config")]
     assert len(sampled) == 3 and len(set(sampled)) == 3
+
+
+def test_one_worker_of_a_launch_takes_the_default_trial_and_only_the_others_wait(sweep_dir, monkeypatch):
+    """The process that takes the enqueued default trial starts at once (each launch once lost 60 s
+    waiting for a creator that never takes trials); the others start as soon as it is taken."""
+    from toolpath.sweep import study as study_module
+
+    base = ["+sweep=mcrl", *SWEEP, "sweep.workers=2", "model@models.mcrl=mcrl"]
+    spec = study_module.spec_from(compose(sweep_dir, base), sweep_dir, base)
+    created = study_module.open_study(spec)
+    waiting = (optuna.trial.TrialState.WAITING,)
+    assert len(created.get_trials(states=waiting)) == 1
+
+    def no_sleep(seconds):
+        raise AssertionError("the worker taking the default trial waited")
+
+    monkeypatch.setattr(study_module.time, "sleep", no_sleep)
+    study_module.open_study(spec, 0, takes_enqueued=True)
+    naps = []
+
+    def taken_meanwhile(seconds):  # the first worker takes it while this one waits
+        naps.append(seconds)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # Optuna: a heartbeat storage is meant for optimize(), not ask()
+            created.ask()
+
+    monkeypatch.setattr(study_module.time, "sleep", taken_meanwhile)
+    joined = study_module.open_study(spec, 1, takes_enqueued=False)
+    assert len(naps) == 1 and not joined.get_trials(states=waiting)
 
 
 def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):

@@ -67,7 +67,8 @@ def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
             run_trials(spec, shares[0], worker=first, callbacks=[advance])
         else:
             with ProcessPoolExecutor(len(shares), mp_context=get_context("spawn")) as pool:
-                futures = [pool.submit(run_trials, spec, n, first + k) for k, n in enumerate(shares)]
+                # the launch's first worker takes the enqueued default trial, the others wait for that
+                futures = [pool.submit(run_trials, spec, n, first + k, (), k == 0) for k, n in enumerate(shares)]
                 while not all(f.done() for f in futures):
                     done = study.get_trials(states=finished)
                     values = [t.value for t in done if t.value is not None]

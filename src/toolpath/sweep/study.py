@@ -163,8 +163,9 @@ def default_params(spec: SweepSpec) -> dict[str, Any] | None:
     return None if any(v is None for v in values.values()) else values
 
 
-def open_study(spec: SweepSpec, worker: int = 0) -> optuna.Study:
-    """Create the study (then its MLflow parent run and the default trial) or join it."""
+def open_study(spec: SweepSpec, worker: int = 0, takes_enqueued: bool = True) -> optuna.Study:
+    """Create the study (then its MLflow parent run and the default trial) or join it.  A joining
+    process that must not take the enqueued trial (``takes_enqueued`` False) returns once it is taken."""
     storage = open_storage(spec)
     try:
         study = optuna.create_study(study_name=spec.study, storage=storage, direction="maximize",
@@ -172,7 +173,8 @@ def open_study(spec: SweepSpec, worker: int = 0) -> optuna.Study:
     except optuna.exceptions.DuplicatedStudyError:
         study = optuna.load_study(study_name=spec.study, storage=storage, sampler=_sampler(spec, worker))
         _wait_for_parent(study)
-        _let_creator_take_enqueued(study)
+        if not takes_enqueued:
+            _wait_until_enqueued_taken(study)
         return study
     for key, value in (("shape", spec.shape), ("model", spec.model), ("objective", spec.objective),
                        ("base_overrides", list(spec.base_overrides))):
@@ -198,11 +200,11 @@ def open_study(spec: SweepSpec, worker: int = 0) -> optuna.Study:
     return study
 
 
-def _let_creator_take_enqueued(study: optuna.Study, seconds: float = 60.0) -> None:
+def _wait_until_enqueued_taken(study: optuna.Study, seconds: float = 60.0) -> None:
     """Start once the enqueued (default) trial is taken.  SQLite has no row locks: two processes can
     both take the one waiting trial, and the second then fails with "Cannot tell a COMPLETE trial"
-    (seen on a slow machine).  The process that created the study takes it first; the others wait,
-    at most ``seconds`` (a resumed study may hold a trial left waiting by a killed launch)."""
+    (seen on a slow machine).  One worker of a launch takes it; the others wait, at most ``seconds``
+    (should that worker die first)."""
     deadline = time.monotonic() + seconds
     while study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.WAITING,)):
         if time.monotonic() > deadline:
@@ -220,12 +222,14 @@ def _wait_for_parent(study: optuna.Study) -> str:
     return study.user_attrs[PARENT_ATTR]
 
 
-def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[Any] = ()) -> int:
+def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[Any] = (),
+               takes_enqueued: bool = True) -> int:
     """Run exactly ``n_trials`` trials of the study in this process; returns how many completed.
-    ``callbacks`` are Optuna's (called with the study and each finished trial)."""
+    ``callbacks`` are Optuna's (called with the study and each finished trial); ``takes_enqueued``:
+    False for all but one of the processes of a launch (:func:`open_study`)."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     os.environ.setdefault("DVC_ROOT", str(spec.root))  # the MLflow artefact root, as in the stages
-    study = open_study(spec, worker)
+    study = open_study(spec, worker, takes_enqueued)
     parent = study.user_attrs[PARENT_ATTR]
     client = mlflow_client(spec)
     experiment = tracking.experiment_id(client, SWEEP_EXPERIMENT)
