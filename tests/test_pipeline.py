@@ -89,6 +89,9 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "int8_speedup_eager" in entry
     for runtime in ("onnxruntime", "openvino"):  # every runtime, FP32 and the shipped INT8 file
         assert set(entry[f"{runtime}_int8"]) >= timing_keys and f"int8_speedup_{runtime}" in entry
+    for runtime in ("onnxruntime", "openvino"):  # what each runtime spends both files' time on
+        assert {p: entry["op_profile"][runtime][p]["ms_per_run"] > 0 for p in ("fp32", "int8")} == \
+            {"fp32": True, "int8": True}
     best = entry["shipped"]["runtime"]
     assert best in ("onnxruntime", "openvino") or "no runtime" in entry["shipped"]["why"]
     if best is not None:  # each shape's whole split in the shipped runtime, FP32 and INT8

@@ -64,6 +64,21 @@ def test_timed_and_branch_profile_report_every_part():
     assert sum(profile[g] for g in MCRL_GROUPS) <= profile["total"] * 1.01
 
 
+def test_timed_opens_each_runners_turn_with_an_untimed_call():
+    """Another runtime's threads spin on after its call: each turn starts with a call that is not timed."""
+    calls = []
+
+    def runner(name):
+        return lambda x: calls.append((name, x.shape[0]))
+
+    x = torch.zeros(4, 50, 2)
+    timed({"a": runner("a"), "b": runner("b")}, {"one": x[:1], "many": x}, repeats=2, warmup=0)
+    assert calls == [("a", 1), ("a", 1), ("a", 4), ("b", 1), ("b", 1), ("b", 4)] * 2
+    calls.clear()
+    timed({"a": runner("a")}, {"many": x}, repeats=1, warmup=0, warm=x[:2])
+    assert calls == [("a", 2), ("a", 2), ("a", 4)]  # the warm-up slice, then it settles the turn
+
+
 def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):
     clf, X, y = trained_mlp
     settings = TrainSettings(lr=3e-4, epochs=2, batch_size=32, seed=2)

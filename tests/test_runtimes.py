@@ -12,6 +12,7 @@ pytest.importorskip("onnxruntime", reason="the `runtimes` extra of pyproject.tom
 pytest.importorskip("openvino", reason="the `runtimes` extra of pyproject.toml is not installed")
 
 from toolpath.bench import runtimes  # noqa: E402
+from toolpath.training import runtimes as onnx_runtimes  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +63,28 @@ def test_compare_reports_every_variant_with_accuracy_and_speedups(trained_mlp, i
     assert sum(profile["share_by_kind"].values()) == pytest.approx(1.0)
     assert sum(profile["share_by_op"].values()) == pytest.approx(1.0)
     assert profile["share_by_kind"]["integer"] > 0  # the MLP's quantised linears run as integer kernels
+
+
+def test_op_kind_reads_both_runtimes_operator_names():
+    assert [onnx_runtimes.op_kind(op) for op in ("QLinearConv", "MatMulInteger", "DequantizeLinear", "Gelu")] == \
+        ["integer", "integer", "convert", "float"]
+    assert [onnx_runtimes.op_kind(op) for op in ("FullyConnected [jit_gemm_I8]", "FakeQuantize [jit_avx2_f32]",
+                                             "Reorder [jit_uni_I8]", "FullyConnected [brgemm_avx2_f32]")] == \
+        ["integer", "convert", "convert", "float"]
+
+
+@pytest.mark.parametrize("runtime", onnx_runtimes.RUNTIMES)
+def test_op_profile_splits_an_int8_files_time_by_operator_and_kind(trained_mlp, int8_file, tmp_path, runtime):
+    _, X, _ = trained_mlp
+    x = torch.as_tensor(X[:64])
+    runtimes.export_onnx(runtimes.load_int8_program(int8_file), x[:2], tmp_path / "int8.onnx")
+    profile = onnx_runtimes.op_profile(tmp_path / "int8.onnx", runtime, 1, x.numpy(), runs=2, top=3)
+    assert profile["ms_per_run"] > 0 and profile["runs"] == 2 and profile["batch"] == 64
+    assert len(profile["share_by_op"]) <= 4 and sum(profile["share_by_op"].values()) == pytest.approx(1.0)
+    assert sum(profile["share_by_kind"].values()) == pytest.approx(1.0)
+    assert profile["share_by_kind"]["integer"] > 0  # the MLP's quantised linears run as integer kernels
+    with pytest.raises(ValueError, match="runtime must be one of"):
+        onnx_runtimes.op_profile(tmp_path / "int8.onnx", "tvm", 1, x.numpy())
 
 
 def test_smooth_classifier_runs_an_onnx_file_in_either_runtime(trained_mlp, tmp_path):

@@ -142,7 +142,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _runtimes(threads: int, repeats: int) -> int:
-    from toolpath.bench.runtimes import CONVERT_OPS, INTEGER_OPS, RUNTIMES, measure
+    from toolpath.bench.runtimes import RUNTIMES, measure
+    from toolpath.training.runtimes import op_kind
 
     cfg = config.load()
     result = measure(list(cfg.benchmark.models), cfg.shapes[0], threads, repeats)
@@ -170,7 +171,7 @@ def _runtimes(threads: int, repeats: int) -> int:
         if found := entry.get("onnxruntime_int8_op_profile"):
             share = found["share_by_kind"]
             floats = [f"{op} {100 * v:.0f} %" for op, v in found["share_by_op"].items()
-                      if not op.startswith(INTEGER_OPS + CONVERT_OPS)][:3]
+                      if op != "other" and op_kind(op) == "float"][:3]
             profile.add_row(name, *(f"{100 * share[k]:.0f} %" for k in ("integer", "convert", "float")),
                             ", ".join(floats))
     Console().print(profile)

@@ -25,12 +25,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from toolpath.training.runtimes import export_onnx, load_int8_program, onnxruntime_runner, openvino_runner
+from toolpath.training.runtimes import export_onnx, load_int8_program, onnxruntime_runner, op_profile, openvino_runner
 
 RUNTIMES = ("torch", "onnxruntime", "openvino")
-# ONNX Runtime kernels that compute in integers, and the conversions at their borders
-INTEGER_OPS = ("QLinear", "ConvInteger", "MatMulInteger", "DynamicQuantize", "QGemm", "QAttention")
-CONVERT_OPS = ("QuantizeLinear", "DequantizeLinear")
 
 
 def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor, threads: int,
@@ -67,9 +64,10 @@ def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tupl
         with torch.inference_mode():
             accuracy = {v: float((np.asarray(_logits(run, test[0])).argmax(1) == test[1]).mean())
                         for v, run in variants.items()}
-        seconds = timed(variants, inputs, repeats, warmup)
+        seconds = timed(variants, inputs, repeats, warmup, warm=inputs["batch"])
         if (Path(tmp) / "int8.onnx").is_file():  # why INT8 is or is not faster: what stays float
-            sizes["onnxruntime_int8_op_profile"] = op_profile(Path(tmp) / "int8.onnx", threads, inputs["batch"])
+            sizes["onnxruntime_int8_op_profile"] = op_profile(Path(tmp) / "int8.onnx", "onnxruntime", threads,
+                                                              inputs["batch"].numpy(), runs=20)
     batch = len(inputs["batch"])
     rows = {v: {"latency_b1_ms": 1e3 * s["b1"], "windows_per_s": batch / s["batch"], "test_accuracy": accuracy[v]}
             for v, s in seconds.items()}
@@ -82,41 +80,6 @@ def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tupl
             # a fast INT8 graph that lost its accuracy is no candidate (issue 22: within 1 point)
             row["accuracy_drop_points"] = 100.0 * (rows[f"{runtime}_fp32"]["test_accuracy"] - row["test_accuracy"])
     return {"variants": rows, "fastest_fp32": fastest_fp32[1], **sizes}
-
-
-def op_profile(path: Path, threads: int, batch: torch.Tensor, runs: int = 20) -> dict:
-    """Where ONNX Runtime spends an ONNX graph's time, by operator type, from its own profiler (after
-    the session's graph optimisations fused quantize / dequantize pairs into integer kernels where it
-    could): each operator's share, and the shares of integer kernels, of conversions between float
-    and int8, and of float operators, the part INT8 leaves unquantised."""
-    import json
-    from collections import Counter
-
-    import onnxruntime as ort
-
-    with tempfile.TemporaryDirectory(prefix="ort-profile-") as tmp:
-        options = ort.SessionOptions()
-        options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
-        options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-        options.enable_profiling, options.profile_file_prefix = True, str(Path(tmp) / "ort")
-        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-        feed = {session.get_inputs()[0].name: batch.numpy()}
-        for _ in range(runs):
-            session.run(None, feed)
-        events = json.loads(Path(session.end_profiling()).read_text())
-    micros: Counter = Counter()
-    for event in events:
-        if event.get("cat") == "Node" and str(event.get("name", "")).endswith("_kernel_time"):
-            micros[event["args"]["op_name"]] += event["dur"]
-    total = sum(micros.values()) or 1
-
-    def kind(op: str) -> str:
-        return "integer" if op.startswith(INTEGER_OPS) else "convert" if op in CONVERT_OPS else "float"
-
-    shares = {op: us / total for op, us in micros.most_common()}
-    return {"runs": runs, "batch": len(batch), "share_by_op": shares,
-            "share_by_kind": {k: sum(v for op, v in shares.items() if kind(op) == k)
-                              for k in ("integer", "convert", "float")}}
 
 
 def _logits(run, x: torch.Tensor, chunk: int = 1024) -> np.ndarray:

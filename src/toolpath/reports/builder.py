@@ -24,7 +24,7 @@ from toolpath.artifacts import (
 from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, summary
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
-from toolpath.reports.speed import int8_gains, table4
+from toolpath.reports.speed import int8_gains, int8_profile, table4
 from toolpath.reports.tables import Table, categories_table, corpus_table, table2, table3
 from toolpath.seeds import seed_for
 
@@ -177,7 +177,8 @@ class Report:
         require(list(qat_paths.values()), "qat")
         inference = read_json(path)
         return self.table([table4(inference, self.shapes),
-                           int8_gains(inference, {s: read_json(p) for s, p in qat_paths.items()})], "table4_inference")
+                           int8_gains(inference, {s: read_json(p) for s, p in qat_paths.items()}),
+                           int8_profile(inference)], "table4_inference")
 
     def classification(self) -> str:
         shape = self.cfg.report.table5_shape

@@ -130,3 +130,30 @@ def int8_gains(inference: Mapping, qat: Mapping[str, Mapping]) -> Table:
         "what stays float).",
     ]
     return table
+
+
+def int8_profile(inference: Mapping) -> Table:
+    """Table 4c: where each runtime spends an INT8 file's time against the FP32 file's, from the
+    runtime's own profiler at the throughput batch (the benchmark's ``op_profile``): why INT8 is or
+    is not faster."""
+    table = Table("Table 4c: where INT8 time goes (each runtime's profiler, batch "
+                  f"{inference.get('setup', {}).get('batch', '?')})",
+                  ["model", "runtime", "FP32 ms / batch", "INT8 ms / batch", "INT8 time: integer / convert / float",
+                   "largest INT8 operators"])
+    for model, entry in inference.get("models", {}).items():
+        for runtime, pair in entry.get("op_profile", {}).items():
+            fp32, int8 = pair["fp32"], pair["int8"]
+            kind = int8["share_by_kind"]
+            largest = [f"{op} {100 * v:.0f} %" for op, v in int8["share_by_op"].items() if op != "other"][:3]
+            table.add([model, RUNTIME_NAMES[runtime], f"{fp32['ms_per_run']:.2f}", f"{int8['ms_per_run']:.2f}",
+                       " / ".join(f"{100 * kind[k]:.0f} %" for k in ("integer", "convert", "float")),
+                       ", ".join(largest)])
+    table.notes += [
+        "Milliseconds are the sum of the operators' times in the runtime's profiler (threads fixed as above), so they "
+        "run a little under the timed figures. Integer: kernels computing in int8 (ONNX Runtime's QLinear* / "
+        "*Integer, OpenVINO's *_I8 kernels); convert: quantize / dequantize and layout reorders; float: the rest, "
+        "which INT8 leaves unquantised. Where the integer kernels alone take longer than the FP32 file's whole "
+        "run, INT8 cannot be faster however little stays float: the int8 kernels themselves are slow on this CPU "
+        "(see the machine in the Table 4 notes).",
+    ]
+    return table

@@ -11,7 +11,8 @@ here) and the qat stage's QDQ INT8 file.  The INT8 runtime shipped per model is 
 accuracy on every shape (the qat stage scores each runtime); each shape's whole test split is timed
 for FP32 eager and the shipped runtime's FP32 and INT8.  Timings use the gear models (the architectures, hence the
 speed, are the same for every shape); the test-split times load each shape's own models.  Plus a
-per-branch profile of MCRL.  Writes the inference metrics (DVC metrics; timings vary between runs by
+per-branch profile of MCRL, and each runtime's per-operator profile of every FP32 and INT8 ONNX file
+(what stays float).  Writes the inference metrics (DVC metrics; timings vary between runs by
 nature) and logs them to MLflow.  A benchmark, never a test.
 """
 
@@ -29,7 +30,7 @@ from toolpath.models.registry import parameter_count
 from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import progress
 from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
-from toolpath.training.runtimes import export_onnx
+from toolpath.training.runtimes import RUNTIMES, export_onnx, op_profile
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -79,6 +80,10 @@ def main(argv: list[str] | None = None) -> None:
             entry["int8_onnx_file_bytes"] = int8_onnx.stat().st_size if int8_onnx.is_file() else None
             if not int8_path.is_file():
                 entry["int8_missing"] = f"{int8_path} not found (see {layout.qat_metrics(shapes[0])})"
+            if int8_onnx.is_file():  # why INT8 is or is not faster: each runtime's profile of both files
+                batch = inputs["batch"].numpy()
+                entry["op_profile"] = {r: {p: op_profile(f, r, bcfg["threads"], batch)
+                                           for p, f in (("fp32", fp32_onnx), ("int8", int8_onnx))} for r in RUNTIMES}
             result["models"][name] = entry
         shutil.rmtree(scratch, ignore_errors=True)
         rule_file = layout.checkpoint(shapes[0], "rule")
@@ -89,7 +94,9 @@ def main(argv: list[str] | None = None) -> None:
                                                 branch_profile(fp32(shapes[0], "mcrl"), inputs["batch"],
                                                                bcfg["repeats"]).items()}
         artifacts.write_json(result, layout.inference_metrics)
-        mlflow.log_metrics({k: v for k, v in config.flat(result["models"]).items() if isinstance(v, int | float)})
+        # per-operator shares stay in the JSON: operator names such as "FullyConnected [jit_gemm_I8]" are no metric keys
+        mlflow.log_metrics({k: v for k, v in config.flat(result["models"]).items()
+                            if isinstance(v, int | float) and ".share_by_op." not in k})
         mlflow.log_artifact(str(layout.inference_metrics))
 
 

@@ -1,7 +1,8 @@
 """Inference timing for Table 4: latency, throughput and whole-split time, measured honestly.
 
 Protocol: torch threads fixed, warm-up calls first, then repetitions *interleaved* across every
-variant (so drift on the machine hits all alike), the median reported.  Variants per model: FP32
+variant (so drift on the machine hits all alike), each variant's turn opening with an untimed call
+(:func:`timed` says why), the median reported.  Variants per model: FP32
 eager, FP32 compiled (inductor), INT8 eager (the converted reference graph: dequantize -> float op ->
 quantize, which simulates INT8 exactly but runs no INT8 kernel) and INT8 compiled (inductor with
 freezing: real INT8 kernels).  :func:`branch_profile` splits an MCRL forward pass by branch.
@@ -35,7 +36,13 @@ def compiled(model: nn.Module) -> nn.Module:
 def timed(runners: dict[str, Runner], inputs: dict[str, torch.Tensor], repeats: int, warmup: int = 2,
           progress: Callable[[], None] | None = None, warm: torch.Tensor | None = None) -> dict[str, dict[str, float]]:
     """Median seconds of every runner on every input, with warm-up and interleaved repetitions
-    (``warm``: one extra warm-up call per runner on this input, e.g. a slice of a large one)."""
+    (``warm``: one extra warm-up call per runner on this input, e.g. a slice of a large one).
+
+    Each runner's turn in a repetition opens with an untimed call (on ``warm``, else the first
+    input): after a call, ONNX Runtime's and OpenMP's worker threads spin for a while, and on 2 cores
+    that slowed whichever runner came next (OpenVINO's FP32 ConvNeXt: 28 ms alone, 46-54 ms right
+    after ONNX Runtime), which made the next variant look slow and the one after it fast."""
+    first = next(iter(inputs.values()), None)
     with torch.inference_mode():
         for run in runners.values():
             if warm is not None:
@@ -46,6 +53,7 @@ def timed(runners: dict[str, Runner], inputs: dict[str, torch.Tensor], repeats: 
         samples: dict[tuple[str, str], list[float]] = {(r, i): [] for r in runners for i in inputs}
         for _ in range(repeats):
             for r, run in runners.items():
+                run(warm if warm is not None else first)  # settles what the previous runner left spinning
                 for i, x in inputs.items():
                     start = time.perf_counter()
                     run(x)
@@ -172,7 +180,8 @@ def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Modul
             runners["int8_compiled"] = compiled(quantized)
     if onnx is not None:
         runners.update(onnx(shapes[0]))
-    seconds = timed(runners, inputs, bcfg["repeats"], bcfg["warmup"])
+    # a turn opens with a whole batch: long enough for the previous runtime's threads to stop spinning
+    seconds = timed(runners, inputs, bcfg["repeats"], bcfg["warmup"], warm=inputs["batch"])
     entry: dict = {v: rates(s, bcfg["batch"], bcfg["large_batch"]) for v, s in seconds.items()}
     for mode in ("eager", "compiled", "onnxruntime", "openvino"):
         fp32_key, int8_key = (f"fp32_{mode}", f"int8_{mode}") if mode in ("eager", "compiled") else \

@@ -76,6 +76,85 @@ def openvino_runner(path: Path, threads: int) -> Runner:
     return lambda x: np.array(request.infer({0: np.ascontiguousarray(x, dtype=np.float32)})[0])
 
 
+# what each operator of a profile computes in: ONNX Runtime names its integer kernels and conversions;
+# OpenVINO names the kernel's precision in its exec type (jit_gemm_I8) and converts in FakeQuantize / Reorder
+KINDS = ("integer", "convert", "float")
+ORT_INTEGER_OPS = ("QLinear", "ConvInteger", "MatMulInteger", "DynamicQuantize", "QGemm", "QAttention")
+ORT_CONVERT_OPS = ("QuantizeLinear", "DequantizeLinear")
+OV_CONVERT_OPS = ("FakeQuantize", "Reorder", "Convert")
+
+
+def op_kind(op: str) -> str:
+    """``integer``, ``convert`` or ``float`` for an operator of :func:`op_profile` (ONNX Runtime's
+    ``QLinearConv``, OpenVINO's ``FullyConnected [jit_gemm_I8]``)."""
+    if "[" in op:  # OpenVINO: node type [exec type]
+        node, exec_type = op.rstrip("]").split(" [", 1)
+        return "convert" if node in OV_CONVERT_OPS else "integer" if "I8" in exec_type.upper() else "float"
+    return "integer" if op.startswith(ORT_INTEGER_OPS) else "convert" if op in ORT_CONVERT_OPS else "float"
+
+
+def op_profile(path: Path, runtime: str, threads: int, batch: np.ndarray, runs: int = 10, top: int = 8) -> dict:
+    """Where ``runtime`` spends the time of the ONNX file ``path`` on ``batch``, from its own profiler
+    (after its graph optimisations fused what they could): milliseconds per run, the ``top`` operators'
+    shares (the rest as ``other``) and the shares of integer kernels, conversions and float operators,
+    the part INT8 leaves unquantised: why an INT8 file is or is not faster."""
+    if runtime not in RUNTIMES:
+        raise ValueError(f"runtime must be one of {RUNTIMES}, got {runtime!r}")
+    batch = np.ascontiguousarray(batch, dtype=np.float32)
+    micros = (_onnxruntime_micros if runtime == "onnxruntime" else _openvino_micros)(Path(path), threads, batch, runs)
+    total = sum(micros.values()) or 1.0
+    ranked = sorted(micros.items(), key=lambda kv: -kv[1])
+    shares = {op: us / total for op, us in ranked[:top]}
+    if len(ranked) > top:
+        shares["other"] = sum(us for _, us in ranked[top:]) / total
+    return {"runs": runs, "batch": len(batch), "ms_per_run": total / runs / 1e3, "share_by_op": shares,
+            "share_by_kind": {k: sum(us for op, us in micros.items() if op_kind(op) == k) / total for k in KINDS}}
+
+
+def _onnxruntime_micros(path: Path, threads: int, batch: np.ndarray, runs: int) -> dict[str, float]:
+    import json
+    import tempfile
+
+    import onnxruntime as ort
+
+    with tempfile.TemporaryDirectory(prefix="ort-profile-") as tmp:
+        options = ort.SessionOptions()
+        options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
+        options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+        options.log_severity_level = 3
+        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        feed = {session.get_inputs()[0].name: batch}
+        session.run(None, feed)  # warm-up, outside the profile
+        options.enable_profiling, options.profile_file_prefix = True, str(Path(tmp) / "ort")
+        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+        for _ in range(runs):
+            session.run(None, feed)
+        events = json.loads(Path(session.end_profiling()).read_text())
+    micros: dict[str, float] = {}
+    for event in events:
+        if event.get("cat") == "Node" and str(event.get("name", "")).endswith("_kernel_time"):
+            op = event["args"]["op_name"]
+            micros[op] = micros.get(op, 0.0) + event["dur"]
+    return micros
+
+
+def _openvino_micros(path: Path, threads: int, batch: np.ndarray, runs: int) -> dict[str, float]:
+    import openvino as ov
+
+    compiled = ov.Core().compile_model(str(path), "CPU", {"INFERENCE_NUM_THREADS": threads, "NUM_STREAMS": 1,
+                                                          "INFERENCE_PRECISION_HINT": "f32",
+                                                          "PERFORMANCE_HINT": "LATENCY", "PERF_COUNT": True})
+    request = compiled.create_infer_request()
+    request.infer({0: batch})  # warm-up: its counters are the last call's, so it is not counted
+    micros: dict[str, float] = {}
+    for _ in range(runs):
+        request.infer({0: batch})
+        for node in request.profiling_info:
+            op = f"{node.node_type} [{node.exec_type}]"
+            micros[op] = micros.get(op, 0.0) + node.real_time.total_seconds() * 1e6
+    return micros
+
+
 def runner(path: Path, runtime: str, threads: int) -> Runner:
     """A function from (B, 50, 2) float32 windows to (B, 4) logits, running ``path`` in ``runtime``."""
     if runtime not in RUNTIMES:
