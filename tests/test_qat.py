@@ -64,19 +64,24 @@ def test_timed_and_branch_profile_report_every_part():
     assert sum(profile[g] for g in MCRL_GROUPS) <= profile["total"] * 1.01
 
 
-def test_timed_opens_each_runners_turn_with_an_untimed_call():
-    """Another runtime's threads spin on after its call: each turn starts with a call that is not timed."""
+def test_timed_opens_each_runners_turn_with_a_pause_and_an_untimed_call(monkeypatch):
+    """Another runtime's threads spin on after its call: each turn starts with a pause and a call that
+    is not timed."""
+    from toolpath.training import bench
+
     calls = []
+    monkeypatch.setattr(bench.time, "sleep", lambda seconds: calls.append(("pause", seconds)))
 
     def runner(name):
         return lambda x: calls.append((name, x.shape[0]))
 
     x = torch.zeros(4, 50, 2)
-    timed({"a": runner("a"), "b": runner("b")}, {"one": x[:1], "many": x}, repeats=2, warmup=0)
-    assert calls == [("a", 1), ("a", 1), ("a", 4), ("b", 1), ("b", 1), ("b", 4)] * 2
+    timed({"a": runner("a"), "b": runner("b")}, {"one": x[:1], "many": x}, repeats=2, warmup=0, settle=0.25)
+    turn = [("pause", 0.25), ("a", 1), ("a", 1), ("a", 4), ("pause", 0.25), ("b", 1), ("b", 1), ("b", 4)]
+    assert calls == turn * 2
     calls.clear()
-    timed({"a": runner("a")}, {"many": x}, repeats=1, warmup=0, warm=x[:2])
-    assert calls == [("a", 2), ("a", 2), ("a", 4)]  # the warm-up slice, then it settles the turn
+    timed({"a": runner("a")}, {"many": x}, repeats=1, warmup=0, warm=x[:2], settle=0.0)
+    assert calls == [("a", 2), ("pause", 0.0), ("a", 2), ("a", 4)]  # the warm-up slice, then it opens the turn
 
 
 def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):

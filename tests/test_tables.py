@@ -46,11 +46,12 @@ def test_table4c_shows_each_runtimes_fp32_and_int8_time_and_what_the_int8_time_i
         return {"ms_per_run": ms, "share_by_op": shares, "share_by_kind": dict(zip(("integer", "convert", "float"),
                                                                                    kinds, strict=True))}
 
-    slow = profile(40.0, {"FullyConnected [jit_gemm_I8]": 0.7, "Transpose [unknown_f32]": 0.2, "other": 0.1},
+    slow = profile(40.0, {"Add [jit_avx2_f32]": 0.05, "FullyConnected [jit_gemm_I8]": 0.7, "Reorder [ref]": 0.02,
+                          "Transpose [unknown_f32]": 0.2, "other": 0.03},
                    (0.72, 0.08, 0.2))
     inference = {"setup": {"batch": 256}, "models": {"convnext": {"op_profile": {
         "openvino": {"fp32": profile(28.0, {"FullyConnected [brgemm_avx2_f32]": 1.0}, (0, 0, 1)), "int8": slow}}},
         "mlp": {}}}  # a model without an INT8 file has no profile: no row
     rows = int8_profile(inference).rows
     assert rows == [["convnext", "OpenVINO", "28.00", "40.00", "72 % / 8 % / 20 %",
-                     "FullyConnected [jit_gemm_I8] 70 %, Transpose [unknown_f32] 20 %"]]
+                     "FullyConnected [jit_gemm_I8] 70 %, Transpose [unknown_f32] 20 %, Add [jit_avx2_f32] 5 %"]]

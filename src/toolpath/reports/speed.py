@@ -144,7 +144,8 @@ def int8_profile(inference: Mapping) -> Table:
         for runtime, pair in entry.get("op_profile", {}).items():
             fp32, int8 = pair["fp32"], pair["int8"]
             kind = int8["share_by_kind"]
-            largest = [f"{op} {100 * v:.0f} %" for op, v in int8["share_by_op"].items() if op != "other"][:3]
+            ranked = sorted(((v, op) for op, v in int8["share_by_op"].items() if op != "other"), reverse=True)
+            largest = [f"{op} {100 * v:.0f} %" for v, op in ranked[:3]]  # the JSON keeps its keys sorted by name
             table.add([model, RUNTIME_NAMES[runtime], f"{fp32['ms_per_run']:.2f}", f"{int8['ms_per_run']:.2f}",
                        " / ".join(f"{100 * kind[k]:.0f} %" for k in ("integer", "convert", "float")),
                        ", ".join(largest)])

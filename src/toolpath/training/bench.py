@@ -34,14 +34,17 @@ def compiled(model: nn.Module) -> nn.Module:
 
 
 def timed(runners: dict[str, Runner], inputs: dict[str, torch.Tensor], repeats: int, warmup: int = 2,
-          progress: Callable[[], None] | None = None, warm: torch.Tensor | None = None) -> dict[str, dict[str, float]]:
+          progress: Callable[[], None] | None = None, warm: torch.Tensor | None = None,
+          settle: float = 0.05) -> dict[str, dict[str, float]]:
     """Median seconds of every runner on every input, with warm-up and interleaved repetitions
     (``warm``: one extra warm-up call per runner on this input, e.g. a slice of a large one).
 
-    Each runner's turn in a repetition opens with an untimed call (on ``warm``, else the first
-    input): after a call, ONNX Runtime's and OpenMP's worker threads spin for a while, and on 2 cores
-    that slowed whichever runner came next (OpenVINO's FP32 ConvNeXt: 28 ms alone, 46-54 ms right
-    after ONNX Runtime), which made the next variant look slow and the one after it fast."""
+    Each runner's turn in a repetition opens with a pause of ``settle`` seconds and an untimed call (on
+    ``warm``, else the first input): after a call, torch's OpenMP and ONNX Runtime's worker threads
+    spin on for milliseconds, and on 2 cores that slowed whichever runner came next (OpenVINO's FP32
+    ConvNeXt: 28 ms alone, 46-54 ms right after ONNX Runtime; ONNX Runtime's FP32 CNN 2.5 ms alone,
+    7.6 ms after torch even behind one untimed call), which made one variant look slow and the next
+    fast.  The pause outlasts the spinning; the call warms the runner's own caches."""
     first = next(iter(inputs.values()), None)
     with torch.inference_mode():
         for run in runners.values():
@@ -53,7 +56,8 @@ def timed(runners: dict[str, Runner], inputs: dict[str, torch.Tensor], repeats: 
         samples: dict[tuple[str, str], list[float]] = {(r, i): [] for r in runners for i in inputs}
         for _ in range(repeats):
             for r, run in runners.items():
-                run(warm if warm is not None else first)  # settles what the previous runner left spinning
+                time.sleep(settle)  # the previous runner's threads stop spinning
+                run(warm if warm is not None else first)
                 for i, x in inputs.items():
                     start = time.perf_counter()
                     run(x)
