@@ -126,8 +126,8 @@ def int8_gains(inference: Mapping, qat: Mapping[str, Mapping]) -> Table:
         "shipped runtime is the fastest INT8 runtime whose INT8 file keeps every shape's test accuracy within "
         "`benchmark.max_drop_points` of the FP32 network; `toolpath smooth --classifier MODEL.onnx "
         "--runtime R` runs it. The paper's INT8 MCRL is 3.2 -> 2.8 s on gear (1.14x); where a target is not met, "
-        "`make bench` writes ONNX Runtime's per-operator profile of each INT8 graph (`reports/bench/runtimes.json`: "
-        "what stays float).",
+        "Table 4c shows why: each runtime's per-operator profile of the FP32 and the INT8 file (what stays float, "
+        "and how fast the integer kernels are).",
     ]
     return table
 
