@@ -67,9 +67,11 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
                         if s in e.get("test_split_s", {})), "?") for s in shapes}
     table.notes += [
         "Workload: the whole test split of each shape (" + ", ".join(f"{s} {n} windows" for s, n in windows.items())
-        + f") classified in one call per variant after a warm-up batch (the split's seconds); windows/s at batch "
-        f"{setup.get('batch', '?')} and latency at batch 1: medians of {setup.get('repeats', '?')} interleaved "
-        "repetitions; "
+        + ") classified in one call per variant (the split's seconds: the median of "
+        + (f"{setup['split_repeats']} passes" if "split_repeats" in setup else "`benchmark.split_repeats` passes")
+        + f"); windows/s at batch {setup.get('batch', '?')} and latency at batch 1: medians of "
+        f"{setup.get('repeats', '?')} interleaved repetitions, each variant's turn opening with a pause and an "
+        "untimed call (the previous runtime's threads spin on after its call); "
         f"{setup.get('torch_threads', '?')} torch threads on {setup.get('cpu', '?')} "
         f"({setup.get('cores', '?')} cores), "
         f"torch {setup.get('torch', '?')}. The paper's seconds are for a workload it does not state, on a GPU: "

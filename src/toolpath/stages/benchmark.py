@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> None:
     pick = torch.randint(0, len(pool), (bcfg["large_batch"],), generator=draws)
     inputs = {"b1": pool[pick[:1]], "batch": pool[pick[: bcfg["batch"]]], "large": pool[pick]}
     torch.use_deterministic_algorithms(False)  # inference only; allow the fastest kernels
-    setup = {k: bcfg[k] for k in ("repeats", "warmup", "batch", "large_batch")}
+    setup = {k: bcfg[k] for k in ("repeats", "warmup", "split_repeats", "batch", "large_batch")}
     result: dict = {"setup": {**machine(bcfg["threads"]), **setup, "timing_shape": shapes[0],
                               "compiled": bcfg["compile"]}, "models": {}, "paper_table4_s": TABLE4}
     with tracking.stage_run("benchmark", config.flat(bcfg, "benchmark")), threads(bcfg["threads"]):
