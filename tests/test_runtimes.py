@@ -65,6 +65,32 @@ def test_compare_reports_every_variant_with_accuracy_and_speedups(trained_mlp, i
     assert profile["share_by_kind"]["integer"] > 0  # the MLP's quantised linears run as integer kernels
 
 
+def test_static_int8_quantises_every_matrix_op_but_the_first_with_its_output(trained_mlp, tmp_path):
+    import onnx
+
+    clf, X, y = trained_mlp
+    x = torch.as_tensor(X)
+    runtimes.export_onnx(clf.network_, x[:2], tmp_path / "fp32.onnx")
+    assert runtimes.static_int8(tmp_path / "fp32.onnx", X[:128], tmp_path / "ptq.onnx") > 0
+    graph = onnx.load(str(tmp_path / "ptq.onnx")).graph
+    producer = {out: node.op_type for node in graph.node for out in node.output}
+    consumers = {}
+    for node in graph.node:
+        for name in node.input:
+            consumers.setdefault(name, []).append(node.op_type)
+    matrix = [n for n in graph.node if n.op_type in runtimes.QUANTIZED_OPS]
+    assert len(matrix) >= 2
+    assert all(producer.get(name) != "DequantizeLinear" for name in matrix[0].input)  # the first stays float
+    for node in matrix[1:]:  # the rest: int8 in and out, which ONNX Runtime fuses into one QLinear kernel
+        assert producer.get(node.input[0]) == "DequantizeLinear" and producer.get(node.input[1]) == "DequantizeLinear"
+        assert consumers[node.output[0]] == ["QuantizeLinear"]
+    out = runtimes.compare("mlp", clf.network_, None, (x, y), {"b1": x[:1], "batch": x[:64]}, threads=1,
+                           repeats=1, warmup=0, calibration=X[:128])
+    row = out["variants"]["onnxruntime_ptq"]
+    assert row["test_accuracy"] >= 0.9 and {"speedup_same_runtime", "speedup_vs_fastest_fp32"} <= set(row)
+    assert out["onnxruntime_ptq_op_profile"]["share_by_kind"]["integer"] > 0
+
+
 def test_op_kind_reads_both_runtimes_operator_names():
     assert [onnx_runtimes.op_kind(op) for op in ("QLinearConv", "MatMulInteger", "DequantizeLinear", "Gelu")] == \
         ["integer", "integer", "convert", "float"]

@@ -151,7 +151,8 @@ def _runtimes(threads: int, repeats: int) -> int:
     table = Table(title=f"windows / s at batch {result['batch']}, {threads} threads; INT8 speed-up in the same runtime "
                         f"and against the fastest FP32 (median of {repeats})")
     for column in ("model", *[f"{r} {p}" for r in RUNTIMES for p in ("FP32", "INT8")],
-                   "best INT8 (drop <= 1 pt) / FP32 same", "best INT8 / fastest FP32"):
+                   "best INT8 (drop <= 1 pt) / FP32 same", "best INT8 / fastest FP32",
+                   "onnxruntime PTQ INT8 (not QAT): / FP32 same, / fastest FP32"):
         table.add_column(column, justify="right")
     for name, entry in result["models"].items():
         rows = entry["variants"]
@@ -160,8 +161,11 @@ def _runtimes(threads: int, repeats: int) -> int:
         int8 = [r for v, r in rows.items() if v.endswith("_int8") and "speedup_same_runtime" in r
                 and r["accuracy_drop_points"] <= 1.0]  # a fast graph that lost its accuracy is no winner
         best = max(int8, key=lambda r: r["windows_per_s"]) if int8 else None
+        ptq = rows.get("onnxruntime_ptq")
         table.add_row(name, *cells, f"{best['speedup_same_runtime']:.2f}x" if best else "-",
-                      f"{best['speedup_vs_fastest_fp32']:.2f}x" if best else "-")
+                      f"{best['speedup_vs_fastest_fp32']:.2f}x" if best else "-",
+                      f"{ptq['windows_per_s']:,.0f} ({100 * ptq['test_accuracy']:.1f} %): "
+                      f"{ptq['speedup_same_runtime']:.2f}x, {ptq['speedup_vs_fastest_fp32']:.2f}x" if ptq else "-")
     Console().print(table)
     profile = Table(title="ONNX Runtime INT8 graph: share of its time in integer kernels, float <-> int8 conversions "
                           "and float operators (its profiler)")
