@@ -134,6 +134,23 @@ def test_quantize_conv1d_gives_the_convolutions_int8():
     assert ops["int8"].get("conv2d", 0) == 3 and "conv1d" not in ops["float"]  # embed, depthwise, pointwise
 
 
+def test_quantize_outputs_fake_quantizes_what_a_convolution_feeds_a_float_op():
+    """ONNX Runtime fuses DQ -> Conv -> Q into one integer kernel only with the Q: each convolution
+    followed by GELU gets an output fake quantizer with ``quantize_outputs``, none without."""
+    from toolpath.models import ConvMixer1d
+
+    torch.manual_seed(0)
+    net = ConvMixer1d(dim=8, depth=1).eval()
+    example = torch.as_tensor(easy_split(4)[0][:2])
+
+    def users_of_convolutions(outputs):
+        prepared = qat.prepare(net, example, ("prepare",), quantize_conv1d=True, quantize_outputs=outputs)
+        return [[u.op for u in node.users] for node in prepared.graph.nodes if "conv2d" in str(node.target)]
+
+    assert users_of_convolutions(False) == [["call_function"]] * 3  # straight into GELU
+    assert users_of_convolutions(True) == [["call_module"]] * 3  # into its fake quantizer, then GELU
+
+
 def test_reduce_range_quantizes_activations_on_seven_bits(trained_mlp):
     clf, X, _ = trained_mlp
     example = torch.as_tensor(X[:2])

@@ -34,7 +34,7 @@ TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 def _worker(job: tuple) -> tuple[dict, float, str | None]:
     """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
     name, fp32_file, producer, parts, train_settings, freeze_last, out, onnx, threads, float_modules, *flags = job
-    conv1d, reduce = flags
+    conv1d, reduce, outputs = flags
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)
     artifacts.load_classifier(fp32_file, producer)  # a corrupt file stops the stage, it is no QAT result
@@ -42,7 +42,7 @@ def _worker(job: tuple) -> tuple[dict, float, str | None]:
     try:
         entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
                                       float_modules=float_modules, onnx=onnx, threads=threads,
-                                      quantize_conv1d=conv1d, reduce_range=reduce)
+                                      quantize_conv1d=conv1d, reduce_range=reduce, quantize_outputs=outputs)
         return entry, seconds, None
     except Exception as exc:  # a route that fails is a result to report, not a crash
         return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
@@ -82,6 +82,9 @@ def main(argv: list[str] | None = None) -> None:
         if unknown := [n for n in names if n not in known]:
             raise SystemExit(f"params.yaml: qat.float_modules.{name}: the {name} network has no module "
                              f"{unknown[0]!r}")
+    quantize_outputs = list(qcfg.get("quantize_outputs") or [])
+    if unknown := [name for name in quantize_outputs if name not in cfg.models]:
+        raise SystemExit(f"params.yaml: qat.quantize_outputs: {unknown[0]!r} is not a model of `models`")
     out_dir = clean_dir(layout.int8_dir(args.shape))
     report, timing = {"train_windows": int(len(parts["train"][0]))}, {}
     params = {**config.flat(qcfg, "qat"), **config.flat(cfg.train[args.shape], "schedule")}
@@ -97,7 +100,8 @@ def main(argv: list[str] | None = None) -> None:
                          settings.qat_training(cfg, args.shape, name), qcfg["freeze_last"],
                          layout.int8_model(args.shape, name),
                          layout.int8_onnx(args.shape, name), threads,
-                         float_modules[name], bool(qcfg["quantize_conv1d"]), bool(qcfg["reduce_range"])))
+                         float_modules[name], bool(qcfg["quantize_conv1d"]), bool(qcfg["reduce_range"]),
+                         name in quantize_outputs))
         # models are independent: spawned workers, the longest first so two workers finish together;
         # results are collected in config order (the same output for any schedule)
         with ProcessPoolExecutor(qcfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:

@@ -96,8 +96,29 @@ def conv1d_as_conv2d(net: nn.Module) -> nn.Module:
     return net
 
 
+MATRIX_OPS = ("aten.conv2d.default", "aten.linear.default")
+
+
+def _quantize_outputs(model: torch.fx.GraphModule) -> None:
+    """Give every annotated Conv2d / Linear whose output the quantizer left float an output fake
+    quantizer too (the spec of its input activation), unless the op after it is quantized already.
+    An ONNX Runtime QDQ graph fuses DQ -> Conv -> Q into one QLinearConv (DQ -> MatMul -> Q likewise)
+    only with the Q after it; without, the op runs in float."""
+    for node in model.graph.nodes:
+        note = node.meta.get("quantization_annotation")
+        if node.op != "call_function" or str(node.target) not in MATRIX_OPS or note is None or \
+                note.output_qspec is not None or not note.input_qspec_map:
+            continue
+        if any(getattr(user.meta.get("quantization_annotation"), "_annotated", False) for user in node.users):
+            continue
+        spec = note.input_qspec_map.get(node.args[0])
+        if spec is not None:
+            note.output_qspec = spec
+
+
 def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] = (),
-            quantize_conv1d: bool = False, reduce_range: bool = False) -> torch.fx.GraphModule:
+            quantize_conv1d: bool = False, reduce_range: bool = False,
+            quantize_outputs: bool = False) -> torch.fx.GraphModule:
     """Export ``net`` and insert fake-quantize observers for QAT with the x86 inductor quantizer,
     leaving the modules named in ``float_modules`` (``named_modules()`` names) in float;
     ``quantize_conv1d``: 1-D convolutions too (:class:`Conv1dAs2d`), else they stay float;
@@ -113,7 +134,14 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
     net.eval()
     if quantize_conv1d:
         net = conv1d_as_conv2d(net).eval()
-    quantizer = X86InductorQuantizer().set_global(
+    class Quantizer(X86InductorQuantizer):
+        def annotate(self, model: torch.fx.GraphModule) -> torch.fx.GraphModule:
+            model = super().annotate(model)
+            if quantize_outputs:
+                _quantize_outputs(model)
+            return model
+
+    quantizer = Quantizer().set_global(
         get_default_x86_inductor_quantization_config(is_qat=True, reduce_range=reduce_range))
     known = {name for name, _ in net.named_modules()}
     for name in float_modules:
@@ -164,7 +192,7 @@ class QATResult:
 def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSettings, X_val: np.ndarray,
               y_val: np.ndarray, freeze_last: int = 1, on_epoch: Callable[[EpochRecord], None] | None = None,
               float_modules: Sequence[str] = (), quantize_conv1d: bool = False,
-              reduce_range: bool = False) -> QATResult:
+              reduce_range: bool = False, quantize_outputs: bool = False) -> QATResult:
     """QAT of ``net`` (its current weights are the start) on class indices ``y``; returns the converted model.
 
     ``settings`` is the FP32 schedule (learning rate, batch) with the QAT epoch count, run as a
@@ -176,7 +204,7 @@ def train_qat(net: nn.Module, X: np.ndarray, y: np.ndarray, settings: TrainSetti
     if not 0 <= freeze_last < settings.epochs:
         raise ValueError("QAT needs 0 <= freeze_last < epochs: observers must see data before they freeze")
     example = torch.as_tensor(X[:2], dtype=torch.float32)
-    prepared = prepare(net, example, float_modules, quantize_conv1d, reduce_range)
+    prepared = prepare(net, example, float_modules, quantize_conv1d, reduce_range, quantize_outputs)
 
     def hook(record: EpochRecord) -> None:
         if record.epoch == settings.epochs - freeze_last:
@@ -261,8 +289,8 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
 
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
                  out: Path, show_epochs: bool = True, float_modules: Sequence[str] = (),
-                 onnx: Path | None = None, threads: int = 1,
-                 quantize_conv1d: bool = False, reduce_range: bool = False) -> tuple[dict, float]:
+                 onnx: Path | None = None, threads: int = 1, quantize_conv1d: bool = False,
+                 reduce_range: bool = False, quantize_outputs: bool = False) -> tuple[dict, float]:
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
     ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT).
     With ``onnx`` (a path): also export the INT8 graph there as ONNX and score it in every runtime of
@@ -273,10 +301,11 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
         with EpochBar(f"qat {name}", settings.epochs) as bar:
             result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
                                on_epoch=bar.update, float_modules=float_modules, quantize_conv1d=quantize_conv1d,
-                               reduce_range=reduce_range)
+                               reduce_range=reduce_range, quantize_outputs=quantize_outputs)
     else:
         result = train_qat(clf.network_, *parts["train"], settings, *parts["val"], freeze_last=freeze_last,
-                           float_modules=float_modules, quantize_conv1d=quantize_conv1d, reduce_range=reduce_range)
+                           float_modules=float_modules, quantize_conv1d=quantize_conv1d, reduce_range=reduce_range,
+                           quantize_outputs=quantize_outputs)
     seconds = time.perf_counter() - started
     X_test = torch.as_tensor(parts["test"][0])
     logits = predict_logits(result.model, X_test)
@@ -299,4 +328,4 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
             "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
             "ops": op_precision(result.model), "epochs": len(result.history),
             "float_modules": list(float_modules), "quantize_conv1d": quantize_conv1d,
-            "reduce_range": reduce_range}, seconds
+            "reduce_range": reduce_range, "quantize_outputs": quantize_outputs}, seconds
