@@ -3,7 +3,8 @@
 Route (``../shared/platform-notes.md``): ``torch.export`` with a dynamic batch dimension ->
 ``prepare_qat_pt2e`` with the x86 inductor quantizer (QAT config: per-channel INT8 weights, per-tensor
 INT8 activations with fake quantization; the modules of ``qat.float_modules``, the input normalisation
-and the layers that see the raw turning terms, stay float) -> train with the same loop and schedule as FP32 -> observers
+and the layers that see the raw turning terms, stay float; ``qat.quantize_outputs`` models also get
+their convolution and linear outputs quantized) -> train with the same loop and schedule as FP32 -> observers
 frozen for the last epoch(s), so the final epochs fine-tune against fixed scales -> ``convert_pt2e``.
 The converted graph is exported again and saved as ``.pt2``; it reloads to identical outputs.
 
@@ -123,7 +124,9 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
     leaving the modules named in ``float_modules`` (``named_modules()`` names) in float;
     ``quantize_conv1d``: 1-D convolutions too (:class:`Conv1dAs2d`), else they stay float;
     ``reduce_range``: activations on 7 bits (0-127), so that x86 CPUs without VNNI, whose u8 x s8
-    kernels (VPMADDUBSW) add pairs of products in saturating 16-bit lanes, compute them exactly."""
+    kernels (VPMADDUBSW) add pairs of products in saturating 16-bit lanes, compute them exactly;
+    ``quantize_outputs``: also the outputs of convolutions and linears that feed a float op
+    (:func:`_quantize_outputs`), which ONNX Runtime then runs as integer kernels."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
     from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
