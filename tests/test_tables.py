@@ -35,6 +35,9 @@ def test_table4b_states_each_int8_target_met_or_not():
     assert rows["mcrl"][-1].startswith("met") and "OpenVINO: 1.20x / 1.05x" in rows["mcrl"]
     assert rows["mcrl"][-4] == "0.40x"  # INT8 weights 40 of FP32's 100 bytes
     assert rows["cnn"][-1].startswith("met") and rows["cnn"][-2] == "gear +0.25"
+    assert "fastest" not in rows["cnn"][-1]  # 1.2x the fastest FP32 too
+    inference["models"]["cnn"]["shipped"]["speedup_vs_fastest_fp32"] = 0.75
+    assert int8_gains(inference, qat).rows[1][-1].endswith("slower than the fastest FP32 (0.75x)")
     assert rows["maxvit"][-1].startswith("not met")  # fast enough, but its file is 0.8x FP32's
     assert rows["mlp"][-1].startswith("none") and rows["rnn"][-1] == "not met"
 

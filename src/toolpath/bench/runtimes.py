@@ -58,14 +58,18 @@ def static_int8(fp32_onnx: Path, calibration: np.ndarray, out: Path, batch: int 
         def get_next(self) -> dict | None:
             return next(self.batches, None)
 
-    logging.getLogger().setLevel(max(logging.getLogger().level, logging.WARNING))  # its per-node notes
+    root, level = logging.getLogger(), logging.getLogger().level
+    root.setLevel(max(level, logging.WARNING))  # its per-node notes go to the root logger
     prepared = out.with_suffix(".pre.onnx")
-    quant_pre_process(str(fp32_onnx), str(prepared))
-    first = next(n.name for n in onnx.load(str(prepared)).graph.node if n.op_type in QUANTIZED_OPS)
-    quantize_static(str(prepared), str(out), Windows(), quant_format=QuantFormat.QDQ, per_channel=True,
-                    reduce_range=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
-                    op_types_to_quantize=list(QUANTIZED_OPS), nodes_to_exclude=[first])
-    prepared.unlink()
+    try:
+        quant_pre_process(str(fp32_onnx), str(prepared))
+        first = next(n.name for n in onnx.load(str(prepared)).graph.node if n.op_type in QUANTIZED_OPS)
+        quantize_static(str(prepared), str(out), Windows(), quant_format=QuantFormat.QDQ, per_channel=True,
+                        reduce_range=True, activation_type=QuantType.QUInt8, weight_type=QuantType.QInt8,
+                        op_types_to_quantize=list(QUANTIZED_OPS), nodes_to_exclude=[first])
+    finally:
+        root.setLevel(level)
+        prepared.unlink(missing_ok=True)
     return out.stat().st_size
 
 

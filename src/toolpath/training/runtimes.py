@@ -122,17 +122,19 @@ def _onnxruntime_micros(path: Path, threads: int, batch: np.ndarray, runs: int) 
         options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
         options.log_severity_level = 3
-        session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-        feed = {session.get_inputs()[0].name: batch}
-        session.run(None, feed)  # warm-up, outside the profile
         options.enable_profiling, options.profile_file_prefix = True, str(Path(tmp) / "ort")
         session = ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
-        for _ in range(runs):
+        feed = {session.get_inputs()[0].name: batch}
+        for _ in range(runs + 1):
             session.run(None, feed)
         events = json.loads(Path(session.end_profiling()).read_text())
+    # the first run is a warm-up (buffers allocated, kernels chosen): only the nodes after it count
+    first = min((e for e in events if e.get("name") == "model_run"), key=lambda e: e["ts"])
+    warm_end = first["ts"] + first["dur"]
     micros: dict[str, float] = {}
     for event in events:
-        if event.get("cat") == "Node" and str(event.get("name", "")).endswith("_kernel_time"):
+        if event.get("cat") == "Node" and str(event.get("name", "")).endswith("_kernel_time") and \
+                event["ts"] >= warm_end:
             op = event["args"]["op_name"]
             micros[op] = micros.get(op, 0.0) + event["dur"]
     return micros
