@@ -164,6 +164,32 @@ def test_turning_features_sum_to_local_curvature_at_any_scale_and_rotation():
         Prepare("raw")
 
 
+@pytest.mark.parametrize("inputs", ["turning", "coordinates"])
+def test_prepare_scales_each_feature_and_lays_it_out_either_way(inputs):
+    """Each feature times its scale, bit for bit what scaling the stacked features gives, and the
+    channels-first layout is the transpose of the default one (the convolutional models read it)."""
+    x = windows(16) * 5.0
+    layer = Prepare(inputs)
+    layer.fit_scale(x)
+    assert not torch.equal(layer.scale, torch.ones(2))
+    features = turning_features(x) if inputs == "turning" else prepare(x)
+    assert torch.equal(layer(x), features * layer.scale)
+    assert torch.equal(layer(x, channels_first=True), layer(x).transpose(1, 2))
+
+
+@pytest.mark.parametrize("name", ["cnn", "convmixer", "convnext", "maxvit"])
+def test_exported_input_preparation_belongs_to_its_module(name):
+    """``qat.float_modules`` finds the input preparation by module: every op computing it must be
+    attributed to ``prepare`` in the exported graph, the channels-first call included."""
+    program = torch.export.export(build(CONFIGS[name]).eval(), (windows(4),))
+    buffer = next(p for p, b in program.graph_signature.inputs_to_buffers.items() if b == "prepare.scale")
+    scale = next(n for n in program.graph.nodes if n.name == buffer)
+    readers = [*scale.users, *(u for n in scale.users for u in n.users)]  # select -> mul
+    assert any("mul" in str(n.target) for n in readers)
+    for node in readers:
+        assert any(path == "prepare" for path, _ in node.meta["nn_module_stack"].values()), node
+
+
 def test_rotation_reflection_augmentation_keeps_local_curvature():
     x = windows(30).double()
     aug = random_rotation_reflection(x, torch.Generator().manual_seed(1))

@@ -122,6 +122,24 @@ def test_conv1d_as_conv2d_is_the_same_function(name):
         torch.testing.assert_close(as2d(x), net(x), rtol=1e-5, atol=1e-5)
 
 
+def test_conv1d_as_conv2d_keeps_the_float_modules_one_dimensional():
+    """A convolution QAT leaves in float stays 1-D (the 2-D form only costs a layout reorder), and the
+    FP32 twin the benchmark times is the network in the INT8 graph's form: the same function."""
+    from toolpath import models
+
+    torch.manual_seed(0)
+    net = models.CNN().eval()
+    kept = qat.conv1d_as_conv2d(net, keep=["prepare", "conv"])
+    assert isinstance(kept.conv, torch.nn.Conv1d)
+    mixer = models.ConvMixer1d(dim=16, depth=2).eval()
+    twin = qat.fp32_twin(mixer, ["prepare", "embed.0"], quantize_conv1d=True)
+    assert isinstance(twin.embed[0], torch.nn.Conv1d) and isinstance(twin.depthwise[0][0], qat.Conv1dAs2d)
+    assert qat.fp32_twin(mixer, ["embed.0"], quantize_conv1d=False) is mixer
+    x = torch.randn(8, 50, 2).cumsum(1)
+    with torch.inference_mode():
+        torch.testing.assert_close(twin(x), mixer(x), rtol=1e-5, atol=1e-5)
+
+
 def test_quantize_conv1d_gives_the_convolutions_int8():
     from toolpath.models import ConvMixer1d
 

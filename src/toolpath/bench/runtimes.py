@@ -74,15 +74,17 @@ def static_int8(fp32_onnx: Path, calibration: np.ndarray, out: Path, batch: int 
 
 
 def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor, threads: int,
-            workdir: Path, calibration: np.ndarray | None = None) -> tuple[dict, dict]:
+            workdir: Path, calibration: np.ndarray | None = None,
+            onnx_fp32: torch.nn.Module | None = None) -> tuple[dict, dict]:
     """Every (runtime, precision) variant of one model as ``{"<runtime>_<fp32|int8>": callable}``, and the
     ONNX file sizes; with ``calibration`` windows also ``onnxruntime_ptq`` (:func:`static_int8`).  A
-    runtime that cannot load a file is left out with its reason under ``errors``."""
+    runtime that cannot load a file is left out with its reason under ``errors``.  ``onnx_fp32``: the
+    network exported for the ONNX runtimes (default ``fp32``; :func:`toolpath.training.qat.fp32_twin`)."""
     from toolpath import artifacts
 
     variants: dict = {"torch_fp32": fp32.eval()}
     sizes: dict = {"errors": {}}
-    sizes["onnx_fp32_bytes"] = export_onnx(fp32, example, workdir / "fp32.onnx")
+    sizes["onnx_fp32_bytes"] = export_onnx(fp32 if onnx_fp32 is None else onnx_fp32, example, workdir / "fp32.onnx")
     files = {"fp32": workdir / "fp32.onnx"}
     if int8_file is not None:
         int8 = artifacts.load_int8(int8_file)
@@ -106,12 +108,12 @@ def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor
 
 def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tuple[torch.Tensor, np.ndarray],
             inputs: dict[str, torch.Tensor], threads: int, repeats: int, warmup: int = 2,
-            calibration: np.ndarray | None = None) -> dict:
+            calibration: np.ndarray | None = None, onnx_fp32: torch.nn.Module | None = None) -> dict:
     """Timings, speed-ups and test accuracies of every variant of one model (module docstring)."""
     from toolpath.training.bench import timed
 
     with tempfile.TemporaryDirectory(prefix=f"runtimes-{name}-") as tmp:
-        variants, sizes = runners(fp32, int8_file, inputs["batch"][:2], threads, Path(tmp), calibration)
+        variants, sizes = runners(fp32, int8_file, inputs["batch"][:2], threads, Path(tmp), calibration, onnx_fp32)
         with torch.inference_mode():
             accuracy = {v: float((np.asarray(_logits(run, test[0])).argmax(1) == test[1]).mean())
                         for v, run in variants.items()}
@@ -151,6 +153,7 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     from toolpath import artifacts, config, settings
     from toolpath.artifacts import Split
     from toolpath.training.bench import machine
+    from toolpath.training.qat import fp32_twin
 
     cfg = config.load()
     layout = settings.layout(cfg)
@@ -165,8 +168,9 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     for name in models:
         fp32 = artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_
         int8_file = layout.int8_model(shape, name)
+        twin = fp32_twin(fp32, (cfg.qat.get("float_modules") or {}).get(name) or (), bool(cfg.qat.quantize_conv1d))
         out["models"][name] = compare(name, fp32, int8_file if int8_file.is_file() else None, test, inputs,
-                                      threads, repeats, calibration=calibration)
+                                      threads, repeats, calibration=calibration, onnx_fp32=twin)
         out["models"][name]["fp32_checkpoint_bytes"] = layout.checkpoint(shape, name).stat().st_size
         if int8_file.is_file():
             out["models"][name]["int8_pt2_bytes"] = int8_file.stat().st_size

@@ -41,7 +41,7 @@ class CNN(nn.Module):
         self.head = nn.Linear(hidden, classes)
 
     def forward(self, x: Tensor) -> Tensor:
-        c = F.relu(self.conv(self.prepare(x).transpose(1, 2)))  # functional ReLU: see MCRL docstring
+        c = F.relu(self.conv(self.prepare(x, channels_first=True)))  # functional ReLU: see MCRL docstring
         c = self.dropout(self.pool(c))
         return self.head(F.relu(self.fc(c.flatten(1))))
 

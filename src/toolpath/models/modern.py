@@ -35,7 +35,7 @@ class ConvMixer1d(nn.Module):
         self.head = nn.Linear(dim, classes)
 
     def forward(self, x: Tensor) -> Tensor:
-        h = self.embed(self.prepare(x).transpose(1, 2))
+        h = self.embed(self.prepare(x, channels_first=True))
         for depthwise, pointwise in zip(self.depthwise, self.pointwise, strict=True):
             h = pointwise(h + depthwise(h))
         return self.head(h.mean(dim=2))
@@ -91,7 +91,7 @@ class ConvNeXt1d(nn.Module):
         self.head = nn.Linear(dims[-1], classes)
 
     def forward(self, x: Tensor) -> Tensor:
-        h = self.stages(self.stem(self.prepare(x).transpose(1, 2)))
+        h = self.stages(self.stem(self.prepare(x, channels_first=True)))
         return self.head(self.norm(h.mean(dim=2)))
 
 
@@ -166,7 +166,7 @@ class MaxViT1d(nn.Module):
         self.head = nn.Linear(dim, classes)
 
     def forward(self, x: Tensor) -> Tensor:
-        h = F.gelu(self.stem(self.prepare(x).transpose(1, 2)))
+        h = F.gelu(self.stem(self.prepare(x, channels_first=True)))
         h = h.transpose(1, 2) + self.position
         for mbconv, block, grid in zip(self.mbconv, self.block, self.grid, strict=True):
             h = mbconv(h.transpose(1, 2)).transpose(1, 2)

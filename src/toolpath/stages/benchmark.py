@@ -30,12 +30,14 @@ from toolpath.models.registry import parameter_count
 from toolpath.reports.paper import TABLE4
 from toolpath.stages._common import progress
 from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
+from toolpath.training.qat import fp32_twin
 from toolpath.training.runtimes import RUNTIMES, export_onnx, op_profile
 
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
     bcfg, layout, shapes = settings.plain(cfg.benchmark), settings.layout(cfg), list(cfg.shapes)
+    qcfg = settings.plain(cfg.qat)
 
     def fp32(shape: str, name: str) -> torch.nn.Module:
         return artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_.eval()
@@ -52,17 +54,21 @@ def main(argv: list[str] | None = None) -> None:
     torch.use_deterministic_algorithms(False)  # inference only; allow the fastest kernels
     setup = {k: bcfg[k] for k in ("repeats", "warmup", "split_repeats", "batch", "large_batch")}
     result: dict = {"setup": {**machine(bcfg["threads"]), **setup, "timing_shape": shapes[0],
-                              "compiled": bcfg["compile"]}, "models": {}, "paper_table4_s": TABLE4}
-    with tracking.stage_run("benchmark", config.flat(bcfg, "benchmark")), threads(bcfg["threads"]):
+                              "compiled": bcfg["compile"],
+                              "fp32_onnx_form": "the INT8 graph's (1-D convolutions as 2-D)" if qcfg["quantize_conv1d"]
+                              else "the network's"}, "models": {}, "paper_table4_s": TABLE4}
+    params = {**config.flat(bcfg, "benchmark"), "qat.quantize_conv1d": qcfg["quantize_conv1d"]}
+    with tracking.stage_run("benchmark", params), threads(bcfg["threads"]):
         import mlflow
 
         qat_metrics = {s: artifacts.read_json(layout.qat_metrics(s), f"qat@{s}") for s in shapes}
         scratch = Path(tempfile.mkdtemp(prefix="benchmark-onnx-"))
         for name in progress(list(bcfg["models"]), "benchmark"):
             # the FP32 network in the ONNX runtimes: the first shape's, exported here (the architecture,
-            # hence the speed, is every shape's); INT8: each shape's own file of the qat stage
+            # hence the speed, is every shape's) in its INT8 graph's form; INT8: each shape's own qat file
             fp32_onnx = scratch / f"{name}.fp32.onnx"
-            export_onnx(fp32(shapes[0], name), inputs["batch"][:2], fp32_onnx)
+            export_onnx(fp32_twin(fp32(shapes[0], name), (qcfg.get("float_modules") or {}).get(name) or (),
+                                  bool(qcfg["quantize_conv1d"])), inputs["batch"][:2], fp32_onnx)
 
             def onnx(shape: str, n: str = name, fp32_file: Path = fp32_onnx) -> dict:
                 return onnx_runners({"fp32": fp32_file, "int8": layout.int8_onnx(shape, n)}, bcfg["threads"])
