@@ -165,3 +165,12 @@ def test_shipped_runtime_is_the_fastest_int8_within_the_accuracy_bound():
                                                 "accuracy_drop_points": {"gear": 0.2, "maple_leaf": -0.1}}
     none = shipped(entry, qat_entries, 0.1)
     assert none["runtime"] is None and "within 0.1 points" in none["why"]
+
+
+def test_int8_dot_product_names_the_instruction_from_the_cpu_flags():
+    from toolpath.training.bench import int8_dot_product
+
+    assert int8_dot_product({"avx2", "fma"}) == "none (AVX2: vpmaddubsw)"
+    assert int8_dot_product({"avx2", "avx512f", "avx512_vnni"}) == "AVX512-VNNI"
+    assert int8_dot_product({"avx2", "avx_vnni"}) == "AVX-VNNI"
+    assert int8_dot_product({"sse2"}) == "none"

@@ -73,12 +73,15 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
         f"{setup.get('repeats', '?')} interleaved repetitions, each variant's turn opening with a pause and an "
         "untimed call (the previous runtime's threads spin on after its call); "
         f"{setup.get('torch_threads', '?')} torch threads on {setup.get('cpu', '?')} "
-        f"({setup.get('cores', '?')} cores), "
+        f"({setup.get('cores', '?')} cores"
+        + (f", INT8 dot product: {setup['int8_dot_product']}" if "int8_dot_product" in setup else "") + "), "
         f"torch {setup.get('torch', '?')}. The paper's seconds are for a workload it does not state, on a GPU: "
         "compare orderings, not sizes.",
         "The eager INT8 graph simulates INT8 arithmetic in float (dequantize -> op -> quantize), so it is slower than "
         "FP32 by construction; INT8 kernels run in the compiled graph and in ONNX Runtime and OpenVINO, which run "
-        "the qat stage's ONNX files (the QAT graph with its learned scales, `models/int8/<shape>/<model>.onnx`).",
+        "the qat stage's ONNX files (the QAT graph with its learned scales, `models/int8/<shape>/<model>.onnx`)"
+        + (f"; the FP32 ONNX file they are timed against is exported in {setup['fp32_onnx_form']} form"
+           if "fp32_onnx_form" in setup else "") + ".",
     ]
     return table
 
