@@ -174,3 +174,25 @@ def test_int8_dot_product_names_the_instruction_from_the_cpu_flags():
     assert int8_dot_product({"avx2", "avx512f", "avx512_vnni"}) == "AVX512-VNNI"
     assert int8_dot_product({"avx2", "avx_vnni"}) == "AVX-VNNI"
     assert int8_dot_product({"sse2"}) == "none"
+
+
+def test_integer_kernel_ceiling_times_true_products_in_both_precisions():
+    """The two graphs `make bench` races compute the same shape of product: the integer one exactly
+    (int32 out), the float one to float precision; the record names both times and their ratio."""
+    import numpy as np
+    import onnx
+    from onnx import numpy_helper
+
+    from toolpath.bench import kernels
+
+    rng = np.random.default_rng(1)
+    for integer, x in ((True, rng.integers(0, 128, (5, 16), dtype=np.uint8)),
+                       (False, rng.standard_normal((5, 16)).astype(np.float32))):
+        model = kernels._model(16, 8, integer, seed=3)
+        weight = numpy_helper.to_array(onnx.load_from_string(model).graph.initializer[0])
+        got = kernels._session(model, 1)(x)
+        expected = x.astype(np.int64) @ weight.astype(np.int64) if integer else x @ weight
+        assert np.allclose(got, expected, rtol=1e-5, atol=1e-4) and got.dtype == (np.int32 if integer else np.float32)
+    record = kernels.measure(1, 1, shapes=((4, 16, 8),))
+    row = record["shapes"]["4x16x8"]
+    assert row["fp32_over_int8"] == row["fp32_ms"] / row["int8_ms"] and record["int8_dot_product"]

@@ -6,7 +6,8 @@ fixed), beside the exact rule's time on the same batch.  Writes ``reports/bench/
 NACOA on one rough 50-point window at the paper's population settings (N = 1000, M0 = 10,
 M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  Writes
 ``reports/bench/runtimes.json``: every model FP32 and INT8 in torch, ONNX Runtime and OpenVINO side by
-side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models).  Writes ``reports/bench/gcode.json``:
+side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models), with the integer kernel's ceiling
+(:mod:`toolpath.bench.kernels`).  Writes ``reports/bench/gcode.json``:
 reading a G01-dense program and ``toolpath smooth`` end to end, beside gcodeparser and pygcode
 (:mod:`toolpath.bench.gcode`).  Prints the tables.
 """
@@ -142,11 +143,13 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _runtimes(threads: int, repeats: int) -> int:
+    from toolpath.bench import kernels
     from toolpath.bench.runtimes import RUNTIMES, measure
     from toolpath.training.runtimes import op_kind
 
     cfg = config.load()
     result = measure(list(cfg.benchmark.models), cfg.shapes[0], threads, repeats)
+    result["integer_kernel_ceiling"] = kernels.measure(threads, repeats)
     write_json(result, OUT / "runtimes.json")
     table = Table(title=f"windows / s at batch {result['batch']}, {threads} threads; INT8 speed-up in the same runtime "
                         f"and against the fastest FP32 (median of {repeats})")
@@ -179,6 +182,14 @@ def _runtimes(threads: int, repeats: int) -> int:
             profile.add_row(name, *(f"{100 * share[k]:.0f} %" for k in ("integer", "convert", "float")),
                             ", ".join(floats))
     Console().print(profile)
+    ceiling = result["integer_kernel_ceiling"]
+    kernel = Table(title="ONNX Runtime, one matrix product: FP32 MatMul against INT8 MatMulInteger (the most INT8 can "
+                         f"gain on a model's products here; INT8 dot product: {ceiling['int8_dot_product']})")
+    for column in ("M x K x N", "FP32 ms", "INT8 ms", "FP32 / INT8"):
+        kernel.add_column(column, justify="right")
+    for shape, row in ceiling["shapes"].items():
+        kernel.add_row(shape, f"{row['fp32_ms']:.3f}", f"{row['int8_ms']:.3f}", f"{row['fp32_over_int8']:.2f}x")
+    Console().print(kernel)
     for name, entry in result["models"].items():
         for variant, reason in entry["errors"].items():
             print(f"{name}: {variant} could not run: {reason}")
