@@ -18,8 +18,10 @@ nature) and logs them to MLflow.  A benchmark, never a test.
 
 from __future__ import annotations
 
+import multiprocessing
 import shutil
 import tempfile
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import torch
@@ -32,6 +34,14 @@ from toolpath.stages._common import progress
 from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
 from toolpath.training.qat import fp32_twin
 from toolpath.training.runtimes import RUNTIMES, export_onnx, op_profile
+
+
+def _export_fp32(job: tuple) -> int:
+    """One FP32 network as ONNX in its INT8 graph's form (in a worker process, on one thread)."""
+    checkpoint, producer, float_modules, quantize_conv1d, example, out = job
+    torch.set_num_threads(1)
+    net = artifacts.load_classifier(checkpoint, producer).network_.eval()
+    return export_onnx(fp32_twin(net, float_modules, quantize_conv1d), example, out)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -63,15 +73,20 @@ def main(argv: list[str] | None = None) -> None:
 
         qat_metrics = {s: artifacts.read_json(layout.qat_metrics(s), f"qat@{s}") for s in shapes}
         scratch = Path(tempfile.mkdtemp(prefix="benchmark-onnx-"))
+        # the FP32 network in the ONNX runtimes: the first shape's (the architecture, hence the speed, is every
+        # shape's) in its INT8 graph's form; INT8: each shape's own qat file.  The exports (up to 15 s each for
+        # the unrolled recurrent models) run before any timing, in parallel processes.
+        fp32_files = {name: scratch / f"{name}.fp32.onnx" for name in bcfg["models"]}
+        jobs = [(layout.checkpoint(shapes[0], name), f"train@{shapes[0]}",
+                 list((qcfg.get("float_modules") or {}).get(name) or ()), bool(qcfg["quantize_conv1d"]),
+                 inputs["batch"][:2], fp32_files[name]) for name in bcfg["models"]]
+        with ProcessPoolExecutor(bcfg["threads"], mp_context=multiprocessing.get_context("spawn")) as exporters:
+            list(exporters.map(_export_fp32, jobs))
         for name in progress(list(bcfg["models"]), "benchmark"):
-            # the FP32 network in the ONNX runtimes: the first shape's, exported here (the architecture,
-            # hence the speed, is every shape's) in its INT8 graph's form; INT8: each shape's own qat file
-            fp32_onnx = scratch / f"{name}.fp32.onnx"
-            export_onnx(fp32_twin(fp32(shapes[0], name), (qcfg.get("float_modules") or {}).get(name) or (),
-                                  bool(qcfg["quantize_conv1d"])), inputs["batch"][:2], fp32_onnx)
+            fp32_onnx = fp32_files[name]
 
-            def onnx(shape: str, n: str = name, fp32_file: Path = fp32_onnx) -> dict:
-                return onnx_runners({"fp32": fp32_file, "int8": layout.int8_onnx(shape, n)}, bcfg["threads"])
+            def onnx(shape: str, n: str = name, fp32_file: Path = fp32_onnx, runtimes: tuple | None = None) -> dict:
+                return onnx_runners({"fp32": fp32_file, "int8": layout.int8_onnx(shape, n)}, bcfg["threads"], runtimes)
 
             def choose(entry: dict, n: str = name) -> dict:
                 return shipped(entry, {s: qat_metrics[s].get(n, {}) for s in shapes}, bcfg["max_drop_points"])

@@ -170,24 +170,25 @@ def rates(seconds: dict[str, float], batch: int, large: int) -> dict[str, float]
             "windows_per_s": batch / seconds["batch"], "windows_per_s_large_batch": large / seconds["large"]}
 
 
-def onnx_runners(files: dict[str, Path], threads: int) -> dict[str, Runner]:
+def onnx_runners(files: dict[str, Path], threads: int, runtimes: tuple[str, ...] | None = None) -> dict[str, Runner]:
     """``{"<runtime>_<precision>": runner}`` for the ONNX files ``{"fp32": path, "int8": path}`` in every
-    runtime of :mod:`toolpath.training.runtimes` (torch tensors in, like the torch variants)."""
-    from toolpath.training import runtimes
+    runtime of :mod:`toolpath.training.runtimes` (or those of ``runtimes``; torch tensors in, like the
+    torch variants)."""
+    from toolpath.training import runtimes as known
 
-    def on_tensors(run: runtimes.Runner) -> Runner:
+    def on_tensors(run: known.Runner) -> Runner:
         return lambda x: run(x.numpy())
 
-    return {f"{runtime}_{precision}": on_tensors(runtimes.runner(path, runtime, threads))
-            for runtime in runtimes.RUNTIMES for precision, path in files.items() if path.is_file()}
+    return {f"{runtime}_{precision}": on_tensors(known.runner(path, runtime, threads))
+            for runtime in (runtimes or known.RUNTIMES) for precision, path in files.items() if path.is_file()}
 
 
 def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Module | None], shapes: list[str],
                 tests: dict, inputs: dict, bcfg: dict, compile_it: bool,
-                onnx: Callable[[str], dict[str, Runner]] | None = None,
+                onnx: Callable[..., dict[str, Runner]] | None = None,
                 choose: Callable[[dict], dict] | None = None) -> dict:
     """Table 4's figures of one model.  ``fp32(shape)`` / ``int8(shape)`` give its networks (int8 None
-    when there is no INT8 model), ``onnx(shape)`` its ONNX runtime variants (:func:`onnx_runners`).
+    when there is no INT8 model), ``onnx(shape, runtimes=None)`` its ONNX runtime variants (:func:`onnx_runners`).
     Latency and throughput of every variant on the first shape's files; INT8 speed-ups per runtime and
     against the fastest FP32; ``choose(entry)`` names the shipped runtime (:func:`shipped`).  Then each
     shape's whole test split with its own weights: FP32 eager, and the shipped runtime's FP32 and INT8
@@ -221,7 +222,7 @@ def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Modul
     for shape in shapes:  # each shape's own weights
         variants = {"fp32_eager": fp32(shape)}
         if best is not None and onnx is not None:
-            variants.update({v: run for v, run in onnx(shape).items() if v.startswith(f"{best}_")})
+            variants.update(onnx(shape, runtimes=(best,)))  # only the shipped runtime's sessions
         # one timed pass after a warm-up on a slice: a 5,000-window split takes seconds, not microseconds
         split[shape] = {v: s["test"] for v, s in timed(variants, {"test": tests[shape]}, bcfg["split_repeats"],
                                                         0, warm=tests[shape][:bcfg["batch"]]).items()}
