@@ -58,3 +58,14 @@ def test_table4c_shows_each_runtimes_fp32_and_int8_time_and_what_the_int8_time_i
     rows = int8_profile(inference).rows
     assert rows == [["convnext", "OpenVINO", "28.00", "40.00", "72 % / 8 % / 20 %",
                      "FullyConnected [jit_gemm_I8] 70 %, Transpose [unknown_f32] 20 %, Add [jit_avx2_f32] 5 %"]]
+
+
+@pytest.mark.parametrize(("passes", "said"), [(1, "one pass, timed once"), (3, "the median of 3 passes")])
+def test_table4_notes_say_how_the_split_was_timed_and_on_what_cpu(passes, said):
+    from toolpath.reports.speed import table4
+
+    setup = {"split_repeats": passes, "repeats": 5, "batch": 256, "int8_dot_product": "none (AVX2: vpmaddubsw)",
+             "fp32_onnx_form": "the INT8 graph's (1-D convolutions as 2-D)"}
+    notes = " ".join(table4({"setup": setup, "models": {}}, ["gear"]).notes)
+    assert said in notes and "INT8 dot product: none (AVX2: vpmaddubsw)" in notes
+    assert "exported in the INT8 graph's (1-D convolutions as 2-D) form" in notes

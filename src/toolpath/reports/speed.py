@@ -67,8 +67,9 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
                         if s in e.get("test_split_s", {})), "?") for s in shapes}
     table.notes += [
         "Workload: the whole test split of each shape (" + ", ".join(f"{s} {n} windows" for s, n in windows.items())
-        + ") classified in one call per variant (the split's seconds: the median of "
-        + (f"{setup['split_repeats']} passes" if "split_repeats" in setup else "`benchmark.split_repeats` passes")
+        + ") classified in one call per variant (the split's seconds: "
+        + (("one pass, timed once" if setup["split_repeats"] == 1 else f"the median of {setup['split_repeats']} passes")
+           if "split_repeats" in setup else "the median of `benchmark.split_repeats` passes")
         + f"); windows/s at batch {setup.get('batch', '?')} and latency at batch 1: medians of "
         f"{setup.get('repeats', '?')} interleaved repetitions, each variant's turn opening with a pause and an "
         "untimed call (the previous runtime's threads spin on after its call); "
