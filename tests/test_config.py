@@ -240,3 +240,14 @@ def test_training_settings_precedence_shape_then_model_then_shared_lr_then_commo
     paper = OmegaConf.load(config.compose(["+experiment=paper"], root=REPO, output=tmp_path / "q.yaml"))
     _, rnn_paper = training(paper, "gear", "rnn")  # the paper's profile: Table 2 for every model
     assert rnn_paper["epochs"] == 497 and rnn_paper["lr"] == 1e-4 and rnn_paper["schedule"] == "step"
+
+
+def test_float_modules_reads_each_models_list_and_none_for_a_model_without_one():
+    from omegaconf import OmegaConf
+
+    from toolpath import settings
+
+    cfg = OmegaConf.create({"qat": {"float_modules": {"cnn": ["prepare", "conv"]}}})
+    assert settings.float_modules(cfg, "cnn") == ["prepare", "conv"]
+    assert settings.float_modules(cfg, "mlp") == []
+    assert settings.float_modules(OmegaConf.create({"qat": {"float_modules": None}}), "cnn") == []

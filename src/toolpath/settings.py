@@ -103,6 +103,11 @@ def qat_training(cfg: DictConfig, shape: str, model: str):
     return TrainSettings(**settings)
 
 
+def float_modules(cfg: DictConfig, model: str) -> list[str]:
+    """The modules ``qat.float_modules`` keeps in float for ``model`` (none when it lists none)."""
+    return [str(name) for name in (plain(cfg.qat).get("float_modules") or {}).get(model) or []]
+
+
 def all_shapes_training(cfg: DictConfig) -> tuple[dict[str, Any], dict[str, Any]]:
     """The network and settings of the model ``generalise`` trains on every shape at once: its
     ``generalise.schedule`` with the same ``train.common`` keys as every other run."""

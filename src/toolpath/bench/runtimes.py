@@ -168,7 +168,7 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     for name in models:
         fp32 = artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_
         int8_file = layout.int8_model(shape, name)
-        twin = fp32_twin(fp32, (cfg.qat.get("float_modules") or {}).get(name) or (), bool(cfg.qat.quantize_conv1d))
+        twin = fp32_twin(fp32, settings.float_modules(cfg, name), bool(cfg.qat.quantize_conv1d))
         out["models"][name] = compare(name, fp32, int8_file if int8_file.is_file() else None, test, inputs,
                                       threads, repeats, calibration=calibration, onnx_fp32=twin)
         out["models"][name]["fp32_checkpoint_bytes"] = layout.checkpoint(shape, name).stat().st_size

@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> None:
         # the unrolled recurrent models) run before any timing, in parallel processes.
         fp32_files = {name: scratch / f"{name}.fp32.onnx" for name in bcfg["models"]}
         jobs = [(layout.checkpoint(shapes[0], name), f"train@{shapes[0]}",
-                 list((qcfg.get("float_modules") or {}).get(name) or ()), bool(qcfg["quantize_conv1d"]),
+                 settings.float_modules(cfg, name), bool(qcfg["quantize_conv1d"]),
                  inputs["batch"][:2], fp32_files[name]) for name in bcfg["models"]]
         with ProcessPoolExecutor(bcfg["threads"], mp_context=multiprocessing.get_context("spawn")) as exporters:
             list(exporters.map(_export_fp32, jobs))

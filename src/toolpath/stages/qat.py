@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> None:
     torch.use_deterministic_algorithms(True)
     parts = training_parts(artifacts.load_windows(layout.windows_file(args.shape), args.shape), qcfg["train_windows"],
                            config.seed_for(cfg.seed, "qat", args.shape, "subset"))
-    float_modules = {name: list((qcfg.get("float_modules") or {}).get(name) or []) for name in qcfg["models"]}
+    float_modules = {name: settings.float_modules(cfg, name) for name in qcfg["models"]}
     for name, names in float_modules.items():
         # a misspelt name is a configuration error, refused before any file is touched (QAT would
         # refuse it too, but as one failed model of a stage that exits 0)
