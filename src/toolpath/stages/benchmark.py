@@ -54,7 +54,9 @@ def main(argv: list[str] | None = None) -> None:
 
     def int8(shape: str, name: str) -> torch.nn.Module | None:
         path = layout.int8_model(shape, name)
-        return artifacts.load_int8(path, f"qat@{shape}") if path.is_file() else None
+        # torch's INT8 graph is timed eagerly (the reference graph) or compiled, or not at all
+        wanted = bcfg["reference_int8"] or name in bcfg["compile"]
+        return artifacts.load_int8(path, f"qat@{shape}") if wanted and path.is_file() else None
 
     tests = {s: torch.as_tensor(artifacts.load_windows(layout.windows_file(s), s).part(Split.TEST)[0]) for s in shapes}
     draws = torch.Generator().manual_seed(config.seed_for(cfg.seed, "benchmark"))
@@ -62,7 +64,7 @@ def main(argv: list[str] | None = None) -> None:
     pick = torch.randint(0, len(pool), (bcfg["large_batch"],), generator=draws)
     inputs = {"b1": pool[pick[:1]], "batch": pool[pick[: bcfg["batch"]]], "large": pool[pick]}
     torch.use_deterministic_algorithms(False)  # inference only; allow the fastest kernels
-    setup = {k: bcfg[k] for k in ("repeats", "warmup", "split_repeats", "batch", "large_batch")}
+    setup = {k: bcfg[k] for k in ("repeats", "warmup", "split_repeats", "batch", "large_batch", "reference_int8")}
     result: dict = {"setup": {**machine(bcfg["threads"]), **setup, "timing_shape": shapes[0],
                               "compiled": bcfg["compile"],
                               "fp32_onnx_form": "the INT8 graph's (1-D convolutions as 2-D)" if qcfg["quantize_conv1d"]

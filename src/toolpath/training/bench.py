@@ -188,14 +188,15 @@ def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Modul
                 onnx: Callable[..., dict[str, Runner]] | None = None,
                 choose: Callable[[dict], dict] | None = None) -> dict:
     """Table 4's figures of one model.  ``fp32(shape)`` / ``int8(shape)`` give its networks (int8 None
-    when there is no INT8 model), ``onnx(shape, runtimes=None)`` its ONNX runtime variants (:func:`onnx_runners`).
+    when there is no INT8 model; its eager reference graph is timed unless ``bcfg["reference_int8"]`` is
+    false), ``onnx(shape, runtimes=None)`` its ONNX runtime variants (:func:`onnx_runners`).
     Latency and throughput of every variant on the first shape's files; INT8 speed-ups per runtime and
     against the fastest FP32; ``choose(entry)`` names the shipped runtime (:func:`shipped`).  Then each
     shape's whole test split with its own weights: FP32 eager, and the shipped runtime's FP32 and INT8
     (the eager INT8 reference graph, slow by construction, is timed on batches only)."""
     runners = {"fp32_eager": fp32(shapes[0])}
     quantized = int8(shapes[0])
-    if quantized is not None:
+    if quantized is not None and bcfg.get("reference_int8", True):
         runners["int8_eager"] = quantized
     if compile_it:
         runners["fp32_compiled"] = compiled(runners["fp32_eager"])
