@@ -86,20 +86,25 @@ def test_timed_opens_each_runners_turn_with_a_pause_and_an_untimed_call(monkeypa
 
 
 @pytest.mark.parametrize("reference", [True, False])
-def test_bench_model_times_the_int8_reference_graph_only_when_asked(monkeypatch, reference):
-    """``benchmark.reference_int8: false`` (the default profile) leaves torch's slow INT8 reference graph
-    out of the timing; the FP32 rows, the test splits and the speed-ups of the other variants stay."""
+def test_bench_model_times_the_int8_reference_graph_and_a_large_batch_only_when_asked(monkeypatch, reference):
+    """``benchmark.reference_int8: false`` and ``large_batch: null`` (the default profile) leave torch's
+    slow INT8 reference graph and the large batch out of the timing; the FP32 rows, the test splits and
+    the speed-ups of the other variants stay."""
     from toolpath.training import bench
 
     monkeypatch.setattr(bench.time, "sleep", lambda seconds: None)
     net = torch.nn.Sequential(torch.nn.Flatten(), torch.nn.Linear(100, 4)).eval()
     x = torch.randn(6, 50, 2)
-    bcfg = {"repeats": 1, "warmup": 0, "split_repeats": 1, "batch": 4, "large_batch": 6, "reference_int8": reference}
-    entry = bench.bench_model(lambda shape: net, lambda shape: net, ["gear"], {"gear": x},
-                              {"b1": x[:1], "batch": x[:4], "large": x}, bcfg, compile_it=False)
+    inputs = {"b1": x[:1], "batch": x[:4], **({"large": x} if reference else {})}
+    bcfg = {"repeats": 1, "warmup": 0, "split_repeats": 1, "batch": 4, "large_batch": 6 if reference else None,
+            "reference_int8": reference}
+    entry = bench.bench_model(lambda shape: net, lambda shape: net, ["gear"], {"gear": x}, inputs, bcfg,
+                              compile_it=False)
     assert ("int8_eager" in entry) is reference and ("int8_speedup_eager" in entry) is reference
+    assert ("windows_per_s_large_batch" in entry["fp32_eager"]) is reference
     assert entry["fp32_eager"]["windows_per_s"] > 0 and entry["fastest_fp32"] == "fp32_eager"
     assert set(entry["test_split_s"]["gear"]) == {"fp32_eager", "windows"}
+
 
 def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):
     clf, X, y = trained_mlp

@@ -2,7 +2,7 @@
 
 Run: python -m toolpath.stages.benchmark   (also ``make bench``)
 
-Per model: latency at batch 1, throughput at ``benchmark.batch`` (and ``large_batch``), the time to
+Per model: latency at batch 1, throughput at ``benchmark.batch`` (and ``large_batch`` if set), the time to
 classify each shape's whole test split, and the model file sizes; FP32 eager and INT8 eager (the
 reference graph) for every model, FP32 and INT8 compiled with inductor for ``benchmark.compile``
 (30-65 s of compilation per graph here), and in ONNX Runtime and OpenVINO the FP32 network (exported
@@ -61,8 +61,11 @@ def main(argv: list[str] | None = None) -> None:
     tests = {s: torch.as_tensor(artifacts.load_windows(layout.windows_file(s), s).part(Split.TEST)[0]) for s in shapes}
     draws = torch.Generator().manual_seed(config.seed_for(cfg.seed, "benchmark"))
     pool = tests[shapes[0]]
-    pick = torch.randint(0, len(pool), (bcfg["large_batch"],), generator=draws)
-    inputs = {"b1": pool[pick[:1]], "batch": pool[pick[: bcfg["batch"]]], "large": pool[pick]}
+    large = bcfg["large_batch"]  # null: no large-batch row (the default profile)
+    pick = torch.randint(0, len(pool), (max(bcfg["batch"], large or 0),), generator=draws)
+    inputs = {"b1": pool[pick[:1]], "batch": pool[pick[: bcfg["batch"]]]}
+    if large:
+        inputs["large"] = pool[pick[:large]]
     torch.use_deterministic_algorithms(False)  # inference only; allow the fastest kernels
     setup = {k: bcfg[k] for k in ("repeats", "warmup", "split_repeats", "batch", "large_batch", "reference_int8")}
     result: dict = {"setup": {**machine(bcfg["threads"]), **setup, "timing_shape": shapes[0],

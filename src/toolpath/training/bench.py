@@ -165,9 +165,12 @@ def cpu_name() -> str:
     return platform.processor() or "unknown"
 
 
-def rates(seconds: dict[str, float], batch: int, large: int) -> dict[str, float]:
-    return {"latency_b1_ms": 1e3 * seconds["b1"], "s_per_batch": seconds["batch"],
-            "windows_per_s": batch / seconds["batch"], "windows_per_s_large_batch": large / seconds["large"]}
+def rates(seconds: dict[str, float], batch: int, large: int | None) -> dict[str, float]:
+    out = {"latency_b1_ms": 1e3 * seconds["b1"], "s_per_batch": seconds["batch"],
+           "windows_per_s": batch / seconds["batch"]}
+    if large and "large" in seconds:
+        out["windows_per_s_large_batch"] = large / seconds["large"]
+    return out
 
 
 def onnx_runners(files: dict[str, Path], threads: int, runtimes: tuple[str, ...] | None = None) -> dict[str, Runner]:
