@@ -149,6 +149,37 @@ def test_score_gives_each_runtime_its_metrics_and_int8_drop(trained_mlp, int8_fi
     assert all(set(broken[r]) == {"error"} for r in shipped_runtimes.RUNTIMES)
 
 
+def test_score_refuses_figures_a_second_session_does_not_reproduce(monkeypatch):
+    """A runtime whose second session of one file gives other logits (OpenVINO's INT8 ConvMixer did)
+    gets a reason, not an accuracy that would change from run to run, and so is never shipped."""
+    import numpy as np
+
+    from toolpath.training import runtimes as shipped_runtimes
+    from toolpath.training.bench import shipped
+
+    sessions = {"onnxruntime": 0, "openvino": 0}
+
+    def runner(path, runtime, threads):
+        sessions[runtime] += 1
+        # ONNX Runtime: the same logits every session; OpenVINO: a different bias per session
+        bias = 0.0 if runtime == "onnxruntime" else float(sessions[runtime])
+        return lambda x: np.stack([x[:, :, 0].sum(1) + bias, x[:, :, 1].sum(1), np.zeros(len(x)), np.zeros(len(x))], 1)
+
+    monkeypatch.setattr(shipped_runtimes, "runner", runner)
+    X = np.random.default_rng(0).normal(size=(40, 50, 2)).astype(np.float32)
+    y = np.zeros(40, dtype=int)
+    def accuracy_only(t, p):
+        return {"accuracy": float((p.argmax(1) == t).mean())}
+
+    out = shipped_runtimes.score("any.onnx", X, y, y, 1.0, 1, accuracy_only)
+    accuracy = out["onnxruntime"]["int8"]["accuracy"]
+    assert out["onnxruntime"]["accuracy_drop_points"] == pytest.approx(100 * (1 - accuracy)) and accuracy < 1
+    assert set(out["openvino"]) == {"error"} and "not reproducible" in out["openvino"]["error"]
+    entry = {f"{r}_int8": {"windows_per_s": 1.0 + (r == "openvino"), "speedup_vs_fastest_fp32": 1.0}
+             for r in shipped_runtimes.RUNTIMES}
+    assert shipped(entry, {"gear": {"runtimes": out}}, 100.0)["runtime"] == "onnxruntime"
+
+
 def test_shipped_runtime_is_the_fastest_int8_within_the_accuracy_bound():
     from toolpath.training.bench import shipped
 
