@@ -3,11 +3,11 @@
 Run: python -m toolpath.stages.benchmark   (also ``make bench``)
 
 Per model: latency at batch 1, throughput at ``benchmark.batch`` (and ``large_batch`` if set), the time to
-classify each shape's whole test split, and the model file sizes; FP32 eager and INT8 eager (the
-reference graph) for every model, FP32 and INT8 compiled with inductor for ``benchmark.compile``
-(30-65 s of compilation per graph here), and in ONNX Runtime and OpenVINO the FP32 network (exported
-here) and the qat stage's QDQ INT8 file.  The INT8 runtime shipped per model is the fastest at batch
-``benchmark.batch`` among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test
+classify each shape's whole test split, and the model file sizes; FP32 eager for every model and INT8
+eager (the reference graph) with ``benchmark.reference_int8``, FP32 and INT8 compiled with inductor
+for ``benchmark.compile`` (30-65 s of compilation per graph here), and in ONNX Runtime and OpenVINO the
+FP32 network (exported here) and the qat stage's QDQ INT8 file.  The INT8 runtime shipped per model is
+the fastest at batch ``benchmark.batch`` among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test
 accuracy on every shape (the qat stage scores each runtime); each shape's whole test split is timed
 for FP32 eager and the shipped runtime's FP32 and INT8.  Timings use the gear models (the architectures, hence the
 speed, are the same for every shape); the test-split times load each shape's own models.  Plus a

@@ -199,7 +199,7 @@ def bench_model(fp32: Callable[[str], nn.Module], int8: Callable[[str], nn.Modul
     (the eager INT8 reference graph, slow by construction, is timed on batches only)."""
     runners = {"fp32_eager": fp32(shapes[0])}
     quantized = int8(shapes[0])
-    if quantized is not None and bcfg.get("reference_int8", True):
+    if quantized is not None and bcfg["reference_int8"]:
         runners["int8_eager"] = quantized
     if compile_it:
         runners["fp32_compiled"] = compiled(runners["fp32_eager"])
