@@ -33,8 +33,8 @@ install: $(STAMP)
 ## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline, timing
 ## every stage (reports/pipeline_time.json: seconds per stage and per stage family).
 repro: install
-	$(PY) -m toolpath.config
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.cli.stage_times -- $(VENV)/bin/dvc repro
+	$(PY) -m toolpath.pipeline.config
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.pipeline.stage_times -- $(VENV)/bin/dvc repro
 	$(PY) -m toolpath.reports.readme
 
 ## Put the report's summary block (reports/readme_block.md, a DVC output) into README.md.
@@ -65,7 +65,7 @@ smooth-example: install
 		--report reports/smooth/report.html
 
 params: install
-	$(PY) -m toolpath.config
+	$(PY) -m toolpath.pipeline.config
 
 lint: install
 	$(VENV)/bin/ruff check src tests

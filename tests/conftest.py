@@ -31,7 +31,7 @@ def write_windows(path: Path, windows, label, split, program=None) -> Path:
     """A windows file with the label stage's whole schema (the fields a test does not care about zero)."""
     import numpy as np
 
-    from toolpath.artifacts import WindowSet, save_windows
+    from toolpath.pipeline.artifacts import WindowSet, save_windows
 
     n = len(windows)
     save_windows(WindowSet(windows=np.asarray(windows, np.float32), origin=np.zeros((n, 2)),

@@ -13,7 +13,7 @@ from conftest import REPO
 from toolpath.gcode import read_text
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.arc_weld import fit_arc, weld_arcs
+from toolpath.smooth.arc_weld import fit_arc, weld_arcs
 
 CORPUS = REPO.parent / "shared" / "gcode-corpus"
 
@@ -122,7 +122,7 @@ def test_property_arcs_stay_within_the_tolerance_and_the_program_keeps_its_end(s
 @pytest.mark.skipif(not CORPUS.is_dir(), reason="../shared/gcode-corpus is absent (real CAM programs)")
 @pytest.mark.parametrize("name", ["camotics_tiny_cat_outline.ngc", "tinyg_hacdc.gcode"])
 def test_corpus_programs_get_arcs_within_tolerance(name, tmp_path):
-    from toolpath.cli.smooth import main
+    from toolpath.smooth.command import main
 
     source = CORPUS / name
     assert main([str(source), "-o", str(tmp_path / name), "--arcs", "--report", str(tmp_path / "r.json")]) == 0

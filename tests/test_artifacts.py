@@ -9,8 +9,8 @@ import yaml
 from omegaconf import OmegaConf
 
 from conftest import REPO, write_windows
-from toolpath import artifacts
-from toolpath.artifacts import ArtifactError, Layout, Split
+from toolpath.pipeline import artifacts
+from toolpath.pipeline.artifacts import ArtifactError, Layout, Split
 
 PARAMS = OmegaConf.load(REPO / "params.yaml")
 
@@ -155,7 +155,7 @@ def test_errors_cross_a_process_pool_whole():
 
 
 def test_a_corrupt_tracking_store_is_one_line_naming_it(tmp_path, monkeypatch):
-    from toolpath import tracking
+    from toolpath.pipeline import tracking
 
     (tmp_path / "mlflow.db").write_bytes(bytes(range(256)) * 20)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from toolpath.geometry import hausdorff
-from toolpath.optimize.methods import METHODS, smooth
+from toolpath.smoothing.methods import METHODS, smooth
 
 CFG = {"tolerance": 0.05, "penalty_weight": 10.0, "box": 0.25,
        "mean_filter": {"width": 5, "passes": 3}, "bezier": {"degree": 5},

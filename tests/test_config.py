@@ -9,13 +9,13 @@ import yaml
 from omegaconf import OmegaConf
 
 from conftest import REPO
-from toolpath import config
+from toolpath.pipeline import config
 
 
 def test_params_yaml_is_the_composition_of_conf(tmp_path):
     out = config.compose([], root=REPO, output=tmp_path / "params.yaml")
     committed = (REPO / "params.yaml").read_bytes()
-    assert out.read_bytes() == committed, "params.yaml drifted from conf/: run `python -m toolpath.config`"
+    assert out.read_bytes() == committed, "params.yaml drifted from conf/: run `python -m toolpath.pipeline.config`"
 
 
 @pytest.mark.parametrize("experiment", sorted(p.stem for p in (REPO / "conf" / "experiment").glob("*.yaml")))
@@ -163,11 +163,11 @@ def test_every_committed_corner_is_inside_within_delta_max_and_every_plan_keeps_
 
 
 def test_every_optimize_module_is_a_dependency_of_the_stage_it_serves():
-    """optimize and corner list their modules of src/toolpath/optimize one by one: a new module must be listed."""
+    """optimize and corner list their modules of src/toolpath/smoothing one by one: a new module must be listed."""
     deps = {d for stage in yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"].values()
             for d in stage.get("deps", []) if isinstance(d, str)}
     # rewrite.py, arc_weld.py and stream.py serve `toolpath smooth` only (whole programs, not the stages' windows)
-    modules = {f"src/toolpath/optimize/{p.name}" for p in (REPO / "src/toolpath/optimize").glob("*.py")
+    modules = {f"src/toolpath/smoothing/{p.name}" for p in (REPO / "src/toolpath/smoothing").glob("*.py")
                if p.name not in ("rewrite.py", "arc_weld.py", "stream.py")}
     assert modules <= deps, sorted(modules - deps)
 
@@ -216,7 +216,7 @@ def test_the_model_and_shape_lists_live_in_conf_and_name_what_the_code_can_build
 def test_training_settings_precedence_shape_then_model_then_shared_lr_then_common_then_tuned_schedule(tmp_path):
     """train.<shape> < train.per_model.<model> < train.common.lr < train.common < a tuned model's schedule;
     replicates differ in their seed only, replicate 0 keeps the single-run seed."""
-    from toolpath.settings import training
+    from toolpath.pipeline.settings import training
 
     cfg = OmegaConf.load(config.compose([], root=REPO, output=tmp_path / "p.yaml"))
     _, mlp = training(cfg, "gear", "mlp")
@@ -245,7 +245,7 @@ def test_training_settings_precedence_shape_then_model_then_shared_lr_then_commo
 def test_float_modules_reads_each_models_list_and_none_for_a_model_without_one():
     from omegaconf import OmegaConf
 
-    from toolpath import settings
+    from toolpath.pipeline import settings
 
     cfg = OmegaConf.create({"qat": {"float_modules": {"cnn": ["prepare", "conv"]}}})
     assert settings.float_modules(cfg, "cnn") == ["prepare", "conv"]

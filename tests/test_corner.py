@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from toolpath.geometry import hausdorff
-from toolpath.optimize.corner import (
+from toolpath.corners.curve import (
     SAMPLES,
     Corner,
     distance_to_legs,
@@ -19,9 +18,10 @@ from toolpath.optimize.corner import (
     outside_distance,
     solve_weights,
 )
-from toolpath.optimize.corner_pso import PsoSettings, _candidate, pso_corner, swarm_fitness
-from toolpath.optimize.nurbs import Nurbs
-from toolpath.optimize.transitions import bezier_transition, bspline_transition
+from toolpath.corners.nurbs import Nurbs
+from toolpath.corners.pso import PsoSettings, _candidate, pso_corner, swarm_fitness
+from toolpath.corners.transitions import bezier_transition, bspline_transition
+from toolpath.geometry import hausdorff
 
 
 def test_rational_quadratic_quarter_circle_has_radius_one():
@@ -82,7 +82,7 @@ import io  # noqa: E402
 
 import torch  # noqa: E402
 
-from toolpath.optimize.corner_net import (  # noqa: E402
+from toolpath.corners.network import (  # noqa: E402
     ResidualMLP,
     fdls_data,
     fit,

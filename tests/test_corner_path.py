@@ -5,14 +5,14 @@ import math
 import numpy as np
 import pytest
 
+from toolpath.corners.path import CornerSettings, corner_frames, corner_smoother, smooth_path
+from toolpath.corners.pso import PsoSettings
+from toolpath.corners.transitions import bezier_curve, bezier_transition, bspline_transition
 from toolpath.feedrate import Machine
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.scurve import ramp_distance, ramp_time
 from toolpath.geometry.deviation import point_to_polyline
-from toolpath.optimize.corner_path import CornerSettings, corner_frames, corner_smoother, smooth_path
-from toolpath.optimize.corner_pso import PsoSettings
-from toolpath.optimize.transitions import bezier_curve, bezier_transition, bspline_transition
 from toolpath.shapes.cases import CASES, case_path
 
 MACHINE = Machine(feed=100.0, period=0.001, chord_error=0.001, contour_error=0.005, normal_acceleration=2000.0,
@@ -114,7 +114,7 @@ def test_smoothed_case_plan_keeps_every_limit():
 
 
 def test_arc_blend_curvature_of_a_lone_corner_is_the_paths_before():
-    from toolpath.optimize.corner_path import arc_blend_curvature
+    from toolpath.corners.path import arc_blend_curvature
 
     (_, corner, _), = corner_frames(SQUARE, CornerSettings())
     smoothed = smooth_path(SQUARE, corner_smoother("bspline"), FAST)
@@ -126,10 +126,10 @@ def test_surrogates_are_not_trusted_where_there_is_no_reference_to_beat(monkeypa
     PSO decides (a repair there once pinched a curve to a near cusp that Eq. 7 alone accepted)."""
     import math
 
-    from toolpath.optimize import corner_net
-    from toolpath.optimize.corner import Corner
-    from toolpath.optimize.corner_path import surrogate_corner
-    from toolpath.optimize.corner_pso import PsoSettings
+    from toolpath.corners import network as corner_net
+    from toolpath.corners.curve import Corner
+    from toolpath.corners.path import surrogate_corner
+    from toolpath.corners.pso import PsoSettings
 
     def never(*args, **kwargs):
         raise AssertionError("the networks were asked")

@@ -148,10 +148,10 @@ def test_the_linuxcnc_knots_and_weights():
 
 
 def test_g5_2_blocks_read_the_same_whole_line_by_line_and_in_parts(tmp_path):
-    from toolpath.cli.smooth import DISPATCH, SMOOTHING
     from toolpath.models.rule import LocalCurvatureRule
-    from toolpath.optimize.rewrite import RewriteOptions
-    from toolpath.optimize.stream import smooth_parts
+    from toolpath.smooth.command import DISPATCH, SMOOTHING
+    from toolpath.smooth.rewrite import RewriteOptions
+    from toolpath.smooth.stream import smooth_parts
 
     text = LINUXCNC.replace("M2\n", "") + "G0 X0 Y0\n" + LINUXCNC.split("\n", 2)[2]
     whole, slow = read_text(text), read_text(text, vectorise=False)

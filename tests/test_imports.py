@@ -6,9 +6,10 @@ import sys
 
 import pytest
 
-DOMAIN = ("gcode", "geometry", "shapes", "labels", "models", "training", "optimize", "feedrate", "sequencing",
+DOMAIN = ("gcode", "geometry", "shapes", "labels", "models", "training", "smoothing", "corners", "inference",
+          "feedrate", "sequencing", "smooth",
           "reports")
-WIRING = ("stages", "sweep", "config", "tracking", "cli", "cli.stage_times")
+WIRING = ("stages", "sweep", "pipeline.config", "pipeline.tracking", "cli", "pipeline.stage_times")
 CHECK = """
 import importlib, sys
 importlib.import_module("toolpath.{name}")

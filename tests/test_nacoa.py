@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from toolpath.geometry import fitness, hausdorff
-from toolpath.optimize import SmoothingProblem
-from toolpath.optimize.gradient import central_difference_gradient, fitness_gradient
-from toolpath.optimize.methods import METHODS, dispatch, nacoa_budget, smooth
-from toolpath.optimize.nacoa import (
+from toolpath.smoothing import SmoothingProblem
+from toolpath.smoothing.gradient import central_difference_gradient, fitness_gradient
+from toolpath.smoothing.methods import METHODS, dispatch, nacoa_budget, smooth
+from toolpath.smoothing.nacoa import (
     NACOA,
     NACOASettings,
     alpha2,
@@ -181,7 +181,7 @@ def test_vectorised_scso_follows_mealpys_sand_cat_search():
     from mealpy import FloatVar
     from mealpy.swarm_based.SCSO import OriginalSCSO
 
-    from toolpath.optimize.scso import VectorisedSCSO
+    from toolpath.smoothing.scso import VectorisedSCSO
 
     def run(cls, seed):
         spec = {"bounds": FloatVar(lb=[-5.0] * 12, ub=[5.0] * 12), "minmax": "min", "log_to": None,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from toolpath.geometry import hausdorff, local_curvature
-from toolpath.optimize import SmoothingProblem, bezier_fit, clip_displacement, mean_filter
+from toolpath.smoothing import SmoothingProblem, bezier_fit, clip_displacement, mean_filter
 
 
 def zigzag(n=50, amplitude=0.05):
@@ -42,8 +42,8 @@ def test_a_width_of_one_leaves_the_window_and_many_windows_filter_as_each_alone(
 
 @pytest.mark.parametrize("method", ["mean_filter", "nacoa", "bezier"])
 def test_windows_smoothed_together_get_what_each_gets_alone(method):
-    from toolpath.cli.smooth import SMOOTHING
-    from toolpath.optimize.methods import smooth, smooth_together
+    from toolpath.smooth.command import SMOOTHING
+    from toolpath.smoothing.methods import smooth, smooth_together
 
     rng = np.random.default_rng(8)
     windows = [zigzag(20) + rng.normal(0, 0.02, (20, 2)) for _ in range(4)]

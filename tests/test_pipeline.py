@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO
-from toolpath import config
 from toolpath.gcode import read_file
+from toolpath.pipeline import config
 
 pytestmark = pytest.mark.slow
 
@@ -135,9 +135,9 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
 def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
     """The INT8 ONNX file the qat stage ships gives identical outputs when loaded again, runs in both
     runtimes, and agrees with the FP32 network on most test windows (the smoke split is easy)."""
-    from toolpath import artifacts
-    from toolpath.artifacts import Split
-    from toolpath.training import runtimes
+    from toolpath.inference import runtimes
+    from toolpath.pipeline import artifacts
+    from toolpath.pipeline.artifacts import Split
 
     X = artifacts.load_windows(work / "data/windows/gear.npz", "label@gear").part(Split.TEST)[0][:512]
     fp32 = artifacts.load_classifier(work / "models/gear/mlp.pt", "train@gear").network_.eval()

@@ -4,9 +4,9 @@ import pytest
 import torch
 
 from conftest import REPO, easy_split
+from toolpath.inference import qat
+from toolpath.inference.timing import MCRL_GROUPS, branch_profile, timed
 from toolpath.models import MCRL
-from toolpath.training import qat
-from toolpath.training.bench import MCRL_GROUPS, branch_profile, timed
 from toolpath.training.loop import TrainSettings, predict_logits
 
 
@@ -67,7 +67,7 @@ def test_timed_and_branch_profile_report_every_part():
 def test_timed_opens_each_runners_turn_with_a_pause_and_an_untimed_call(monkeypatch):
     """Another runtime's threads spin on after its call: each turn starts with a pause and a call that
     is not timed."""
-    from toolpath.training import bench
+    from toolpath.inference import timing as bench
 
     calls = []
     monkeypatch.setattr(bench.time, "sleep", lambda seconds: calls.append(("pause", seconds)))
@@ -90,7 +90,7 @@ def test_bench_model_times_the_int8_reference_graph_and_a_large_batch_only_when_
     """``benchmark.reference_int8: false`` and ``large_batch: null`` (the default profile) leave torch's
     slow INT8 reference graph and the large batch out of the timing; the FP32 rows, the test splits and
     the speed-ups of the other variants stay."""
-    from toolpath.training import bench
+    from toolpath.inference import timing as bench
 
     monkeypatch.setattr(bench.time, "sleep", lambda seconds: None)
     net = torch.nn.Sequential(torch.nn.Flatten(), torch.nn.Linear(100, 4)).eval()
@@ -119,8 +119,8 @@ def test_float_modules_stay_float_and_unknown_names_are_refused(trained_mlp):
 def test_every_configured_float_module_exists_in_its_model():
     from pathlib import Path
 
-    from toolpath import config, settings
     from toolpath.models.registry import build
+    from toolpath.pipeline import config, settings
 
     cfg = config.compose_config(Path(__file__).resolve().parents[1], [])
     float_modules = cfg.qat.float_modules

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO, write_windows
-from toolpath import config
+from toolpath.pipeline import config
 from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
 from toolpath.reports.readme import main as readme_main
 from toolpath.reports.summary import table3_summary
@@ -74,7 +74,7 @@ def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(
 def test_the_parent_run_carries_the_headline_figures_and_the_best_model(partial):
     import mlflow
 
-    from toolpath import tracking
+    from toolpath.pipeline import tracking
 
     report.main([])
     parent = mlflow.MlflowClient(tracking.tracking_uri()).search_runs(
@@ -117,8 +117,8 @@ def test_blocks_sections_and_summaries():
 
 
 def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
-    from toolpath.artifacts import save_checkpoint
     from toolpath.models.rule import LocalCurvatureRule
+    from toolpath.pipeline.artifacts import save_checkpoint
     from toolpath.reports.builder import table5_predictions
     from toolpath.training.classifier import to_checkpoint
 
@@ -177,7 +177,7 @@ def test_program_bootstrap_hand_cases():
 
 
 def test_headline_names_a_corrupt_metrics_file_and_skips_an_absent_one(tmp_path):
-    from toolpath.artifacts import Layout
+    from toolpath.pipeline.artifacts import Layout
     from toolpath.reports.headline import headline
 
     layout = Layout.from_config({k: str(tmp_path / k) for k in (

@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 import torch
 
-from toolpath.training import qat
+from toolpath.inference import qat
 from toolpath.training.loop import TrainSettings, predict_logits
 
 pytest.importorskip("onnxruntime", reason="the `runtimes` extra of pyproject.toml is not installed")
 pytest.importorskip("openvino", reason="the `runtimes` extra of pyproject.toml is not installed")
 
 from toolpath.bench import runtimes  # noqa: E402
-from toolpath.training import runtimes as onnx_runtimes  # noqa: E402
+from toolpath.inference import runtimes as onnx_runtimes  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -114,8 +114,8 @@ def test_op_profile_splits_an_int8_files_time_by_operator_and_kind(trained_mlp, 
 
 
 def test_smooth_classifier_runs_an_onnx_file_in_either_runtime(trained_mlp, tmp_path):
-    from toolpath.cli.smooth import classifier
-    from toolpath.training import runtimes as shipped_runtimes
+    from toolpath.inference import runtimes as shipped_runtimes
+    from toolpath.smooth.command import classifier
 
     clf, X, _ = trained_mlp
     x = torch.as_tensor(X)
@@ -126,8 +126,8 @@ def test_smooth_classifier_runs_an_onnx_file_in_either_runtime(trained_mlp, tmp_
 
 
 def test_score_gives_each_runtime_its_metrics_and_int8_drop(trained_mlp, int8_file, tmp_path):
+    from toolpath.inference import runtimes as shipped_runtimes
     from toolpath.models.rule import CLASSES
-    from toolpath.training import runtimes as shipped_runtimes
     from toolpath.training.metrics import classification_metrics
 
     def metrics(t, p):
@@ -154,8 +154,8 @@ def test_score_refuses_figures_a_second_session_does_not_reproduce(monkeypatch):
     gets a reason, not an accuracy that would change from run to run, and so is never shipped."""
     import numpy as np
 
-    from toolpath.training import runtimes as shipped_runtimes
-    from toolpath.training.bench import shipped
+    from toolpath.inference import runtimes as shipped_runtimes
+    from toolpath.inference.timing import shipped
 
     sessions = {"onnxruntime": 0, "openvino": 0}
 
@@ -181,7 +181,7 @@ def test_score_refuses_figures_a_second_session_does_not_reproduce(monkeypatch):
 
 
 def test_shipped_runtime_is_the_fastest_int8_within_the_accuracy_bound():
-    from toolpath.training.bench import shipped
+    from toolpath.inference.timing import shipped
 
     entry = {"onnxruntime_int8": {"windows_per_s": 200.0, "speedup_vs_fastest_fp32": 1.2},
              "openvino_int8": {"windows_per_s": 300.0, "speedup_vs_fastest_fp32": 1.8},
@@ -199,7 +199,7 @@ def test_shipped_runtime_is_the_fastest_int8_within_the_accuracy_bound():
 
 
 def test_int8_dot_product_names_the_instruction_from_the_cpu_flags():
-    from toolpath.training.bench import int8_dot_product
+    from toolpath.inference.timing import int8_dot_product
 
     assert int8_dot_product({"avx2", "fma"}) == "none (AVX2: vpmaddubsw)"
     assert int8_dot_product({"avx2", "avx512f", "avx512_vnni"}) == "AVX512-VNNI"

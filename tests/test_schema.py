@@ -1,4 +1,4 @@
-"""Bad configuration values are refused in one line before any stage runs (toolpath.schema)."""
+"""Bad configuration values are refused in one line before any stage runs (toolpath.pipeline.schema)."""
 
 import shutil
 
@@ -6,8 +6,8 @@ import pytest
 from omegaconf import OmegaConf
 
 from conftest import REPO
-from toolpath import config
-from toolpath.schema import ConfigError
+from toolpath.pipeline import config
+from toolpath.pipeline.schema import ConfigError
 
 
 @pytest.fixture
@@ -53,7 +53,7 @@ def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, overrid
 
 
 def test_a_section_replaced_by_a_value_is_one_line_not_a_traceback():
-    from toolpath.schema import problems
+    from toolpath.pipeline.schema import problems
 
     reference = {"label": {"window": 50, "bounds": [1.9, 3.5, 7.6]}, "qat": {"epochs": 3}, "shapes": ["gear"]}
     found = list(problems({"label": 5, "qat": "x", "shapes": ["gear"]}, reference))

@@ -16,13 +16,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from conftest import REPO
-from toolpath.cli import smooth as cli
 from toolpath.gcode import read_text
 from toolpath.gcode.edit import substitute_plain_xy, substitute_xy
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
 from toolpath.models.rule import LocalCurvatureRule
-from toolpath.optimize.rewrite import RewriteOptions, smooth_program
+from toolpath.smooth import command as cli
+from toolpath.smooth.rewrite import RewriteOptions, smooth_program
 
 CORPUS = REPO.parent / "shared" / "gcode-corpus"
 NUMBER = re.compile(r"([XY])\s*-?\d*\.?\d+")

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from toolpath.cli.smooth import DISPATCH, SMOOTHING, classifier
 from toolpath.gcode import GCodeError, read_file
 from toolpath.gcode.reading import text_parts
-from toolpath.optimize.rewrite import RewriteOptions
-from toolpath.optimize.stream import Combined, smooth_parts
+from toolpath.smooth.command import DISPATCH, SMOOTHING, classifier
+from toolpath.smooth.rewrite import RewriteOptions
+from toolpath.smooth.stream import Combined, smooth_parts
 
 OPTIONS = RewriteOptions(tolerance=0.01, smoothing=SMOOTHING, method="mean_filter", mapping=DISPATCH, seed=0)
 

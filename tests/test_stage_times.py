@@ -3,7 +3,7 @@
 import json
 import sys
 
-from toolpath.cli.stage_times import by_family, main, stage_seconds
+from toolpath.pipeline.stage_times import by_family, main, stage_seconds
 
 
 def test_a_stage_lasts_until_the_next_one_starts():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO, write_windows
-from toolpath import config
+from toolpath.pipeline import config
 from toolpath.stages import generate, label
 
 
@@ -174,7 +174,7 @@ def test_optimize_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
 
 
 def test_optimize_rejects_an_unknown_method(smoke_dir):
-    from toolpath.optimize.runs import plan
+    from toolpath.smoothing.runs import plan
 
     with pytest.raises(ValueError, match="unknown method"):
         plan([(0, 2, True)], {"methods": ["sandpaper"], "modes": ["bound"], "encodings": ["plain"]})

@@ -15,9 +15,9 @@ from omegaconf import OmegaConf
 
 import toolpath.models  # noqa: F401  (before toolpath.training: the two import each other)
 from conftest import REPO
-from toolpath import config
-from toolpath.config import compose_config as compose
-from toolpath.settings import training as model_and_settings
+from toolpath.pipeline import config
+from toolpath.pipeline.config import compose_config as compose
+from toolpath.pipeline.settings import training as model_and_settings
 from toolpath.stages import generate, label
 from toolpath.sweep import overrides, parse_space
 from toolpath.sweep.__main__ import _shares

@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from toolpath import tracking
+from toolpath.pipeline import tracking
 
 
 def _open_store(uri: str) -> str:

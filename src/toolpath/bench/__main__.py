@@ -26,10 +26,10 @@ import torch
 from rich.console import Console
 from rich.table import Table
 
-from toolpath import config
-from toolpath.artifacts import write_json
+from toolpath.inference.timing import machine
 from toolpath.models.registry import build, is_learned, parameter_count
-from toolpath.training.bench import machine
+from toolpath.pipeline import config
+from toolpath.pipeline.artifacts import write_json
 
 OUT = Path("reports/bench")
 
@@ -82,8 +82,8 @@ def rough_window(seed: int = 0, n: int = 50) -> np.ndarray:
 def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
     """Median seconds of NACOA on one window at the paper's population settings, per mode and gradient."""
     from toolpath.geometry import fitness
-    from toolpath.optimize import SmoothingProblem
-    from toolpath.optimize.nacoa import NACOA, NACOASettings
+    from toolpath.smoothing import SmoothingProblem
+    from toolpath.smoothing.nacoa import NACOA, NACOASettings
 
     window = rough_window(seed)
     out = {}
@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
 def _runtimes(threads: int, repeats: int) -> int:
     from toolpath.bench import kernels
     from toolpath.bench.runtimes import RUNTIMES, measure
-    from toolpath.training.runtimes import op_kind
+    from toolpath.inference.runtimes import op_kind
 
     cfg = config.load()
     result = measure(list(cfg.benchmark.models), cfg.shapes[0], threads, repeats)

@@ -89,7 +89,7 @@ def _run(code: str, path: Path, limit: int) -> dict:
 def _smooth(path: Path, method: str, report: bool, repeats: int) -> dict:
     """``toolpath smooth`` end to end (start-up excluded: timed inside the process)."""
     flags = f"'--method', {method!r}" + (", '--report', path + '.json'" if report else "")
-    code = ("from toolpath.cli.smooth import main\nout = path + '.out'\n"
+    code = ("from toolpath.smooth.command import main\nout = path + '.out'\n"
             "def work():\n"
             f"    assert main([path, '-o', out, '--force', {flags}]) == 0\n"
             "    return sum(1 for _ in open(path))\n")

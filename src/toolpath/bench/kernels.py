@@ -48,8 +48,8 @@ def _session(model: bytes, threads: int):
 
 def measure(threads: int, repeats: int, shapes: tuple[tuple[int, int, int], ...] = SHAPES, seed: int = 0) -> dict:
     """Per shape: FP32 ``MatMul`` and INT8 ``MatMulInteger`` milliseconds (medians of interleaved
-    repetitions, :func:`toolpath.training.bench.timed`) and their ratio, FP32 / INT8."""
-    from toolpath.training.bench import int8_dot_product, timed
+    repetitions, :func:`toolpath.inference.timing.timed`) and their ratio, FP32 / INT8."""
+    from toolpath.inference.timing import int8_dot_product, timed
 
     rng = np.random.default_rng(seed)
     out: dict = {"int8_dot_product": int8_dot_product(), "threads": threads, "repeats": repeats, "shapes": {}}

@@ -16,7 +16,7 @@ the FP32 file (:func:`static_int8`: calibrated on training windows, every Conv /
 first quantised *with its output*, so that ONNX Runtime fuses each into one QLinear kernel).  The QAT
 graph quantises a convolution's output only where the next op is quantised too, so in ONNX Runtime
 most of its convolutions stay float; this row measures what the fused form would gain.
-Protocol as the benchmark stage's (:func:`toolpath.training.bench.timed`): fixed threads, warm-up,
+Protocol as the benchmark stage's (:func:`toolpath.inference.timing.timed`): fixed threads, warm-up,
 repetitions interleaved over every variant, medians; batch 1 and ``batch``.  Each variant's test-split
 accuracy is measured too, so a speed-up never hides an accuracy loss.  Timings vary from run to run.
 Where INT8 is not faster, ``onnxruntime_int8_op_profile`` shows why: ONNX Runtime's own per-operator
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from toolpath.training.runtimes import export_onnx, load_int8_program, onnxruntime_runner, op_profile, openvino_runner
+from toolpath.inference.runtimes import export_onnx, load_int8_program, onnxruntime_runner, op_profile, openvino_runner
 
 RUNTIMES = ("torch", "onnxruntime", "openvino")
 
@@ -79,8 +79,8 @@ def runners(fp32: torch.nn.Module, int8_file: Path | None, example: torch.Tensor
     """Every (runtime, precision) variant of one model as ``{"<runtime>_<fp32|int8>": callable}``, and the
     ONNX file sizes; with ``calibration`` windows also ``onnxruntime_ptq`` (:func:`static_int8`).  A
     runtime that cannot load a file is left out with its reason under ``errors``.  ``onnx_fp32``: the
-    network exported for the ONNX runtimes (default ``fp32``; :func:`toolpath.training.qat.fp32_twin`)."""
-    from toolpath import artifacts
+    network exported for the ONNX runtimes (default ``fp32``; :func:`toolpath.inference.qat.fp32_twin`)."""
+    from toolpath.pipeline import artifacts
 
     variants: dict = {"torch_fp32": fp32.eval()}
     sizes: dict = {"errors": {}}
@@ -110,7 +110,7 @@ def compare(name: str, fp32: torch.nn.Module, int8_file: Path | None, test: tupl
             inputs: dict[str, torch.Tensor], threads: int, repeats: int, warmup: int = 2,
             calibration: np.ndarray | None = None, onnx_fp32: torch.nn.Module | None = None) -> dict:
     """Timings, speed-ups and test accuracies of every variant of one model (module docstring)."""
-    from toolpath.training.bench import timed
+    from toolpath.inference.timing import timed
 
     with tempfile.TemporaryDirectory(prefix=f"runtimes-{name}-") as tmp:
         variants, sizes = runners(fp32, int8_file, inputs["batch"][:2], threads, Path(tmp), calibration, onnx_fp32)
@@ -150,10 +150,10 @@ def _logits(run, x: torch.Tensor, chunk: int = 1024) -> np.ndarray:
 
 def measure(models: list[str], shape: str, threads: int, repeats: int, batch: int = 256, seed: int = 0) -> dict:
     """:func:`compare` for each model of ``models`` on ``shape``'s pipeline artefacts (``make repro`` first)."""
-    from toolpath import artifacts, config, settings
-    from toolpath.artifacts import Split
-    from toolpath.training.bench import machine
-    from toolpath.training.qat import fp32_twin
+    from toolpath.inference.qat import fp32_twin
+    from toolpath.inference.timing import machine
+    from toolpath.pipeline import artifacts, config, settings
+    from toolpath.pipeline.artifacts import Split
 
     cfg = config.load()
     layout = settings.layout(cfg)

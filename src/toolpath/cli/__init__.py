@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-COMMANDS = {"smooth": ("toolpath.cli.smooth", "smooth a rough G-code program within a two-sided tolerance"),
-            "stage-times": ("toolpath.cli.stage_times", "time every DVC stage of a command (e.g. dvc repro)")}
+COMMANDS = {"smooth": ("toolpath.smooth.command", "smooth a rough G-code program within a two-sided tolerance"),
+            "stage-times": ("toolpath.pipeline.stage_times", "time every DVC stage of a command (e.g. dvc repro)")}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,5 +1,5 @@
 """Reading a program in parts: one interpreter carried from part to part, so a program of tens of
-millions of lines is read (and smoothed, :mod:`toolpath.optimize.stream`) a few hundred thousand lines
+millions of lines is read (and smoothed, :mod:`toolpath.smooth.stream`) a few hundred thousand lines
 at a time, in bounded memory, with the same numbers as reading it whole.
 
 A part's :class:`~toolpath.gcode.program.Program` numbers its lines from 1 (``lines``, ``states``,
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.interpreter import Interpreter, ReaderOptions
 from toolpath.gcode.lexer import tokenize
 from toolpath.gcode.program import Lines, Program, StateTable
-from toolpath.gcode.reader import ReaderOptions, _Interpreter
 from toolpath.gcode.scanner import scan
 from toolpath.gcode.text import MAX_LINE_LENGTH
 
@@ -31,7 +31,7 @@ class Reading:
     def __init__(self, source: str = "<string>", options: ReaderOptions | None = None) -> None:
         self.source = source
         self.options = options or ReaderOptions()
-        self.interp = _Interpreter(source, self.options)
+        self.interp = Interpreter(source, self.options)
         self.lines_read = 0
 
     def snapshot(self) -> Reading:

@@ -7,8 +7,8 @@ import sys
 from rich.console import Console
 from rich.table import Table
 
-from toolpath import config
 from toolpath.models.registry import build, parameter_count
+from toolpath.pipeline import config
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath.artifacts import (
+from toolpath.pipeline.artifacts import (
     CATEGORIES,
     Layout,
     Split,
@@ -21,12 +21,12 @@ from toolpath.artifacts import (
     load_smoothed,
     load_windows,
 )
+from toolpath.pipeline.seeds import seed_for
 from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, summary
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, table4
 from toolpath.reports.tables import Table, categories_table, corpus_table, table2, table3
-from toolpath.seeds import seed_for
 
 
 def read_json(path: Path) -> dict:

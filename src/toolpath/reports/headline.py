@@ -11,7 +11,7 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from toolpath.artifacts import Layout
+from toolpath.pipeline.artifacts import Layout
 
 PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 

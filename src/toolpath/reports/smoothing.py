@@ -20,9 +20,9 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from toolpath.geometry.curvature import local_curvature  # noqa: E402
-from toolpath.optimize.evaluate import COMPLEXITY, reduction_pct  # noqa: E402
 from toolpath.reports.paper import PAPER_REDUCTION, PAPER_TABLE6  # noqa: E402
 from toolpath.reports.tables import Table  # noqa: E402
+from toolpath.smoothing.evaluate import COMPLEXITY, reduction_pct  # noqa: E402
 
 PAPER_METHODS = ("mean_filter", "bezier", "nacoa")
 Y_FLOOR = -50.0  # lowest reduction drawn in the trade-off figure (per cent)  # Figs. 9-11 and Sec. 5.2.4

@@ -26,14 +26,14 @@ from pathlib import Path
 
 import torch
 
-from toolpath import artifacts, config, settings, tracking
-from toolpath.artifacts import Split
+from toolpath.inference.qat import fp32_twin
+from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile
+from toolpath.inference.timing import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
 from toolpath.models.registry import parameter_count
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.artifacts import Split
+from toolpath.pipeline.workers import progress
 from toolpath.reports.paper import TABLE4
-from toolpath.stages._common import progress
-from toolpath.training.bench import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
-from toolpath.training.qat import fp32_twin
-from toolpath.training.runtimes import RUNTIMES, export_onnx, op_profile
 
 
 def _export_fp32(job: tuple) -> int:

@@ -6,7 +6,7 @@ Writes the surrogates and each case's smoothed paths and feed profiles (for the 
 metrics (per case and method: time, peaks, bounds, curvature reductions against both 'befores', the
 two-sided error; PSO's convergence study; the surrogates' test record: deterministic), one row per
 corner and method (Table 2's content), the surrogates' loss curves and the timing, at the paths of
-:class:`toolpath.artifacts.Layout`.
+:class:`toolpath.pipeline.artifacts.Layout`.
 """
 
 from __future__ import annotations
@@ -17,8 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from toolpath import artifacts, config, settings, tracking
-from toolpath.optimize.corner_runs import (
+from toolpath.corners.runs import (
     CORNER_FIELDS,
     pso_study,
     run_case,
@@ -26,7 +25,8 @@ from toolpath.optimize.corner_runs import (
     surrogate_timing,
     train_surrogates,
 )
-from toolpath.stages._common import pool_map, progress
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import pool_map, progress
 
 
 def _pool_map(workers: int) -> Callable[[Callable, list, str], list]:

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from toolpath import artifacts, config, settings, tracking
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.windows import summarise
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.stages._common import grouped_metrics, pool_map, shape_arg
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import grouped_metrics, pool_map, shape_arg
 
 ROW_FIELDS = ("window", "mode", "encoding", "method", "time_original", "time_smoothed", "time_saved_pct",
               "hausdorff_mm", "within_limits", "bracketed")

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from toolpath import artifacts, config, settings, tracking
-from toolpath.artifacts import Split
 from toolpath.gcode import GCodeError, ReaderOptions, read_file
 from toolpath.labels import label_program
 from toolpath.labels.windows import arc_share
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.artifacts import Split
 from toolpath.training.classifier import TorchClassifier, to_checkpoint
 from toolpath.training.generalise import best_by_validation, corpus_report, cross_shape_matrix
 from toolpath.training.metrics import classification_metrics

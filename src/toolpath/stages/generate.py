@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath import config, settings, tracking
 from toolpath.gcode.writer import write_program
+from toolpath.pipeline import config, settings, tracking
+from toolpath.pipeline.workers import clean_dir, progress, shape_arg
 from toolpath.shapes.synth import synthesize
-from toolpath.stages._common import clean_dir, progress, shape_arg
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -1,6 +1,6 @@
 """Window and label one shape's programs (Algorithm 1).  Run: python -m toolpath.stages.label --shape gear
 
-Writes the shape's windows file (:class:`toolpath.artifacts.WindowSet`) and its label metrics (class
+Writes the shape's windows file (:class:`toolpath.pipeline.artifacts.WindowSet`) and its label metrics (class
 counts and shares, LocalCurvature quantiles, windows per split).
 """
 
@@ -10,11 +10,11 @@ import sys
 
 import numpy as np
 
-from toolpath import artifacts, config, settings, tracking
 from toolpath.gcode import GCodeError, read_file
 from toolpath.labels import concat, label_program, split_by_program
 from toolpath.labels.summary import label_summary
-from toolpath.stages._common import pool_map, shape_arg
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import pool_map, shape_arg
 
 
 def _label_file(job: tuple) -> object:

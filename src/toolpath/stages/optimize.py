@@ -5,7 +5,7 @@ Run: python -m toolpath.stages.optimize --shape gear
 Writes the per-window rows (one per window, fidelity mode, method and encoding; ``seconds`` is the
 only column that varies between runs), the summary (mean reduction, two-sided deviation, per
 category, dispatch: deterministic), Table 6's timing, the convergence curves (bound mode, plain
-encoding, baseline windows) and every smoothed window, at the paths of :class:`toolpath.artifacts.Layout`.
+encoding, baseline windows) and every smoothed window, at the paths of :class:`toolpath.pipeline.artifacts.Layout`.
 """
 
 from __future__ import annotations
@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from toolpath import artifacts, config, settings, tracking
-from toolpath.optimize.evaluate import ROW_FIELDS, summarise, timing
-from toolpath.optimize.methods import dispatch
-from toolpath.optimize.runs import convergence_curves, plan, run_task, sample_windows
-from toolpath.stages._common import grouped_metrics, progress, shape_arg
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import grouped_metrics, progress, shape_arg
+from toolpath.smoothing.evaluate import ROW_FIELDS, summarise, timing
+from toolpath.smoothing.methods import dispatch
+from toolpath.smoothing.runs import convergence_curves, plan, run_task, sample_windows
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -3,15 +3,15 @@
 Run: python -m toolpath.stages.qat --shape gear
 
 For each model of ``qat.models``: start from the trained FP32 weights, run QAT through PT2E
-(:mod:`toolpath.training.qat`) on the model's training settings (:func:`toolpath.settings.qat_training`),
+(:mod:`toolpath.inference.qat`) on the model's training settings (:func:`toolpath.pipeline.settings.qat_training`),
 convert, save the INT8 ``.pt2``, reload it and check the outputs are identical, and score
 it on the same test programs as the FP32 model with every Table 3 metric; then export the INT8 graph
-to ONNX (``<model>.onnx``: what ONNX Runtime and OpenVINO run, :mod:`toolpath.training.runtimes`)
+to ONNX (``<model>.onnx``: what ONNX Runtime and OpenVINO run, :mod:`toolpath.inference.runtimes`)
 and score that file in each runtime.  A model whose route fails
 is recorded with the reason (``status: failed``) and the other models go on; no file is written for
 it, and the stage then exits non-zero (its metrics written), so DVC does not take it as done.
 
-Writes the shape's QAT metrics (deterministic) and timing (:class:`toolpath.artifacts.Layout`).
+Writes the shape's QAT metrics (deterministic) and timing (:class:`toolpath.pipeline.artifacts.Layout`).
 """
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import torch
 
-from toolpath import artifacts, config, settings, tracking
+from toolpath.inference.qat import quantize_one
 from toolpath.models.registry import build
-from toolpath.stages._common import clean_dir, progress, shape_arg
-from toolpath.training.qat import quantize_one
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import clean_dir, progress, shape_arg
 
 TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
-from toolpath import config, settings, tracking
+from toolpath.pipeline import config, settings, tracking
 from toolpath.reports import summary
 from toolpath.reports.builder import Report
 from toolpath.reports.document import report_markdown

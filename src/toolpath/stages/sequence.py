@@ -3,7 +3,7 @@
 Reads every sheet; writes per sheet the S-shaped plan with collision avoidance as one continuous-cut
 program and every method's visits and collisions (for the report's figure), the metrics (empty travel,
 collisions, optimisation rate against the manual order: deterministic) and the timing (each method's
-planning time, Table 1's Time column), at the paths of :class:`toolpath.artifacts.Layout`.
+planning time, Table 1's Time column), at the paths of :class:`toolpath.pipeline.artifacts.Layout`.
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-from toolpath import artifacts, config, settings, tracking
-from toolpath.artifacts import write_json
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.artifacts import write_json
+from toolpath.pipeline.workers import clean_dir, pool_map
 from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
 from toolpath.sequencing.planner import SheetPlan
 from toolpath.sequencing.score import collisions
-from toolpath.stages._common import clean_dir, pool_map
 
 
 def load_sheet(path: Path) -> Sheet:

@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath import config, settings, tracking
-from toolpath.artifacts import write_json
+from toolpath.pipeline import config, settings, tracking
+from toolpath.pipeline.artifacts import write_json
+from toolpath.pipeline.workers import clean_dir, progress
 from toolpath.sequencing.sheets import make_sheet
-from toolpath.stages._common import clean_dir, progress
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -3,7 +3,7 @@ seed, and evaluate every run on the held-out test programs.
 
 Run: python -m toolpath.stages.train --shape gear
 
-Per model, at the paths of :class:`toolpath.artifacts.Layout`: the checkpoint of replicate 0, the
+Per model, at the paths of :class:`toolpath.pipeline.artifacts.Layout`: the checkpoint of replicate 0, the
 metrics (replicate 0's, and mean / sd / per-seed values over the replicates), its per-epoch curves
 (Figs. 6-7) and the wall time.  One process per shape: the runs go to ``train.workers`` worker
 processes, so the pipeline does not pay interpreter and MLflow start-up once per model.
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from toolpath import artifacts, config, settings, tracking
 from toolpath.models.registry import parameter_count
-from toolpath.stages._common import progress, shape_arg
+from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.workers import progress, shape_arg
 from toolpath.training import replicates
 
 PLOT_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val_accuracy")

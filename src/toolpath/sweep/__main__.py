@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: conf/sweep/{args.config}.yaml not found (run from the repository root)", file=sys.stderr)
         return 2
     try:
-        from toolpath.config import compose_config as compose
+        from toolpath.pipeline.config import compose_config as compose
         from toolpath.sweep.finish import finish
         from toolpath.sweep.study import open_study, spec_from
 
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         if base.sweep.model in base.models and not any(o.startswith(choice) for o in args.overrides):
             base_overrides.append(f"{choice}{base.sweep.model}")
             base = compose(root, base_overrides)
-        from toolpath.config import validate
+        from toolpath.pipeline.config import validate
 
         validate(base, root, "the sweep's configuration")  # a bad base override stops before any trial
         spec = spec_from(base, root, base_overrides)
@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except SystemExit as exc:  # toolpath.schema.ConfigError: one line naming the key
+    except SystemExit as exc:  # toolpath.pipeline.schema.ConfigError: one line naming the key
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except Exception as exc:  # Hydra's config errors name the override or file at fault

@@ -11,8 +11,8 @@ from typing import Any
 import optuna
 from omegaconf import OmegaConf
 
-from toolpath.config import compose_config as compose
 from toolpath.models.registry import split_schedule
+from toolpath.pipeline.config import compose_config as compose
 from toolpath.sweep.study import PARENT_ATTR, SweepSpec, mlflow_client
 
 COMPLETE = optuna.trial.TrialState.COMPLETE

@@ -1,4 +1,4 @@
-"""One trial: its config composed from ``conf/`` (:func:`toolpath.config.compose_config`), the model trained as
+"""One trial: its config composed from ``conf/`` (:func:`toolpath.pipeline.config.compose_config`), the model trained as
 the train stage would,
 score it on the validation split (the test split is reported, never selected on)."""
 
@@ -13,7 +13,7 @@ from omegaconf import DictConfig
 
 def load_splits(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Train / val / test windows and labels of a windows file (``data/windows/<shape>.npz``)."""
-    from toolpath.artifacts import load_windows
+    from toolpath.pipeline.artifacts import load_windows
 
     return load_windows(path, path.stem).parts()
 
@@ -25,7 +25,7 @@ def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
     exactly as the train stage trains its ``replicate`` (:func:`toolpath.training.classifier.fit_and_score`)."""
     import torch
 
-    from toolpath.settings import layout, training
+    from toolpath.pipeline.settings import layout, training
     from toolpath.training.classifier import fit_and_score
 
     torch.set_num_threads(threads)

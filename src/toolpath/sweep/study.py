@@ -21,9 +21,9 @@ from typing import Any
 import optuna
 from omegaconf import DictConfig, OmegaConf
 
-from toolpath import tracking
-from toolpath.config import compose_config as compose
-from toolpath.settings import layout
+from toolpath.pipeline import tracking
+from toolpath.pipeline.config import compose_config as compose
+from toolpath.pipeline.settings import layout
 from toolpath.sweep.objective import average, load_splits, metric, train_and_score
 from toolpath.sweep.space import Param, overrides, parse_space, suggest
 

@@ -22,14 +22,14 @@ import time
 
 import numpy as np
 
-from toolpath.optimize.problem import SmoothingProblem
-from toolpath.optimize.result import SmoothingResult
+from toolpath.smoothing.problem import SmoothingProblem
+from toolpath.smoothing.result import SmoothingResult
 
 MEALPY_CLASSES = {
     "coa": "mealpy.swarm_based.CoatiOA.OriginalCoatiOA",
     "hba": "mealpy.swarm_based.HBA.OriginalHBA",
     "avoa": "mealpy.swarm_based.AVOA.OriginalAVOA",
-    "scso": "toolpath.optimize.scso.VectorisedSCSO",  # mealpy's OriginalSCSO, one generation per array op
+    "scso": "toolpath.smoothing.scso.VectorisedSCSO",  # mealpy's OriginalSCSO, one generation per array op
     "esoa": "mealpy.swarm_based.ESOA.OriginalESOA",
     "pso": "mealpy.swarm_based.PSO.OriginalPSO",
 }

@@ -5,7 +5,7 @@ The edit is a substitution of X/Y numbers on single G1 lines (:mod:`toolpath.gco
 are moved, never added or removed, so every other line, word and comment stays as it was.
 
 Tolerance, both ways and across joins.  Each rough window is smoothed in ``bound`` mode
-(:mod:`toolpath.optimize.problem`), where every point moves at most ``tolerance - rounding`` and the
+(:mod:`toolpath.smoothing.problem`), where every point moves at most ``tolerance - rounding`` and the
 stretch's two end points stay; writing the numbers at the line's precision moves a point by at most
 ``rounding`` = half a unit of the last decimal (times sqrt 2 in the plane).  So every point moves at
 most ``tolerance``, which bounds the Frechet, hence the two-sided Hausdorff, distance of each changed
@@ -29,8 +29,8 @@ from toolpath.gcode.writer import fmt_many
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import moved_hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.methods import TOGETHER as METHODS_TOGETHER
-from toolpath.optimize.methods import UNTOUCHED, dispatch, smooth_together
+from toolpath.smoothing.methods import TOGETHER as METHODS_TOGETHER
+from toolpath.smoothing.methods import UNTOUCHED, dispatch, smooth_together
 
 MIN_POINTS = 5  # a stretch shorter than this has too few interior points to smooth
 DEFAULT_DECIMALS = {False: 3, True: 4}  # mm, inch: where a line gives no decimals of its own
@@ -73,7 +73,7 @@ class Rewrite:
     runs_before: list[np.ndarray]
     runs_after: list[np.ndarray]
     changed_lines: list[int]
-    arcs: list | None = None  # ``--arcs``: :class:`toolpath.optimize.arc_weld.ArcRecord` per arc written
+    arcs: list | None = None  # ``--arcs``: :class:`toolpath.smooth.arc_weld.ArcRecord` per arc written
     arcs_note: str | None = None  # why no arc was fitted at all, when so
 
 
@@ -171,7 +171,7 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
                    progress: Callable[[list], list] = lambda items: items, start: Reading | None = None) -> Rewrite:
     """Classify every window of ``program``'s feed runs and smooth the rough ones within the tolerance.
 
-    ``start``: for a part of a program (:mod:`toolpath.optimize.stream`), the reading its output is
+    ``start``: for a part of a program (:mod:`toolpath.smooth.stream`), the reading its output is
     re-read from (the modal state and parameters where the part begins).
 
     ``classify`` maps windows (N, window, 2) in mm, relative to their first point, to Table 1
@@ -237,7 +237,7 @@ MOST_AT_ONCE = 32  # windows smoothed side by side at most (a few MB of NACOA's 
 
 def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
     """Jobs in the order they are run: side by side in groups of one method, stretch length and tolerance
-    where the method allows it (:data:`toolpath.optimize.methods.TOGETHER`; each keeps its own seed,
+    where the method allows it (:data:`toolpath.smoothing.methods.TOGETHER`; each keeps its own seed,
     so its result is the one it gets alone), else one at a time."""
     units, open_groups = [], {}
     for k, (_, a, b, record) in enumerate(jobs):

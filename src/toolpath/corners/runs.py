@@ -11,18 +11,18 @@ from collections.abc import Callable
 
 import numpy as np
 
-from toolpath.feedrate.assess import assess
-from toolpath.feedrate.limits import Machine, polyline_radius
-from toolpath.optimize.corner import evaluate
-from toolpath.optimize.corner_path import (
+from toolpath.corners.curve import evaluate
+from toolpath.corners.path import (
     CornerSettings,
     corner_smoother,
     smooth_path,
     surrogate_corner,
     surrogate_limit,
 )
-from toolpath.optimize.corner_pso import PsoSettings
-from toolpath.seeds import seed_for
+from toolpath.corners.pso import PsoSettings
+from toolpath.feedrate.assess import assess
+from toolpath.feedrate.limits import Machine, polyline_radius
+from toolpath.pipeline.seeds import seed_for
 from toolpath.shapes.cases import case_path
 
 PoolMap = Callable[[Callable, list, str], list]
@@ -31,7 +31,7 @@ CORNER_FIELDS = ("case", "method", "vertex", "turn_deg", "leg", "curvature_befor
 
 
 def _solve(job: tuple) -> tuple:
-    from toolpath.optimize.corner_net import solve
+    from toolpath.corners.network import solve
 
     corner, seed, delta_max, settings = job
     return solve(corner, seed, delta_max, settings)
@@ -42,7 +42,7 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     test on the rest."""
     import torch
 
-    from toolpath.optimize.corner_net import ResidualMLP, draw_corners, fdls_data, fit, sdls_data
+    from toolpath.corners.network import ResidualMLP, draw_corners, fdls_data, fit, sdls_data
 
     data = ccfg["dataset"]
     drawn = draw_corners(data["train"] + data["test"], seed_for(seed, "corner", "dataset"),
@@ -108,15 +108,15 @@ def reductions(values: list[float], suffix: str) -> dict:
 
 
 def _study(job: tuple) -> np.ndarray:
-    from toolpath.optimize.corner_study import solve_grid
+    from toolpath.corners.study import solve_grid
 
     return solve_grid(*job)
 
 
 def pso_study(ccfg: dict, settings: CornerSettings, seed: int, pool_map: PoolMap) -> dict:
     """PSO's convergence over particles x iterations on drawn corners (their own seeded draw)."""
-    from toolpath.optimize.corner_net import draw_corners
-    from toolpath.optimize.corner_study import summarise_grid
+    from toolpath.corners.network import draw_corners
+    from toolpath.corners.study import summarise_grid
 
     study, data = ccfg["pso_study"], ccfg["dataset"]
     drawn = draw_corners(study["corners"], seed_for(seed, "corner", "pso_study"),

@@ -23,8 +23,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from toolpath.optimize.corner import Corner, CornerCurve, evaluate, solve_weights
-from toolpath.optimize.corner_pso import PsoSettings, pso_corner
+from toolpath.corners.curve import Corner, CornerCurve, evaluate, solve_weights
+from toolpath.corners.pso import PsoSettings, pso_corner
 
 REPAIR_TARGETS = tuple(np.linspace(1.0, 0.5, 11))  # fractions of delta_max tried by the weight repair
 

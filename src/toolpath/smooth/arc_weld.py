@@ -34,7 +34,7 @@ from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.rewrite import line_decimals
+from toolpath.smooth.rewrite import line_decimals
 
 MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
 MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length

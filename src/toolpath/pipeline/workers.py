@@ -1,5 +1,5 @@
 """Helpers shared by the stage modules: argument parsing, progress bars, MLflow metric names.  Files
-between stages are :mod:`toolpath.artifacts`."""
+between stages are :mod:`toolpath.pipeline.artifacts`."""
 
 from __future__ import annotations
 

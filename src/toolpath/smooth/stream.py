@@ -29,7 +29,7 @@ from toolpath.gcode.program import Motion, Program
 from toolpath.gcode.reader import ReaderOptions
 from toolpath.gcode.reading import Reading, text_parts
 from toolpath.labels.windows import feed_runs
-from toolpath.optimize.rewrite import Rewrite, RewriteOptions, smooth_program
+from toolpath.smooth.rewrite import Rewrite, RewriteOptions, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
@@ -80,7 +80,7 @@ def _cut(program: Program, window: int) -> tuple[int, bool]:
 def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
                  read_options: ReaderOptions | None = None, part_bytes: int = PART_BYTES,
                  progress: Callable[[list], list] = lambda items: items) -> Iterator[Part]:
-    """Every part of the program at ``path``, smoothed (:func:`toolpath.optimize.rewrite.smooth_program`).
+    """Every part of the program at ``path``, smoothed (:func:`toolpath.smooth.rewrite.smooth_program`).
 
     Raises
     ------

@@ -13,8 +13,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from toolpath.optimize.corner import Corner
-from toolpath.optimize.corner_pso import PsoSettings, pso_corner
+from toolpath.corners.curve import Corner
+from toolpath.corners.pso import PsoSettings, pso_corner
 
 
 def solve_grid(corner: Corner, delta_max: float, settings: PsoSettings, particles: list[int],

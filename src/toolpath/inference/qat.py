@@ -311,7 +311,7 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
     ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT).
     With ``onnx`` (a path): also export the INT8 graph there as ONNX and score it in every runtime of
-    :mod:`toolpath.training.runtimes` (on ``threads`` threads) against the FP32 network's accuracy."""
+    :mod:`toolpath.inference.runtimes` (on ``threads`` threads) against the FP32 network's accuracy."""
     clf = from_checkpoint(checkpoint)
     started = time.perf_counter()
     if show_epochs:
@@ -332,7 +332,7 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     metrics = classification_metrics(CATEGORIES[parts["test"][1]], proba)
     shipped: dict = {}
     if onnx is not None:
-        from toolpath.training import runtimes
+        from toolpath.inference import runtimes
 
         fp32_predictions = predict_logits(from_checkpoint(checkpoint).network_.eval(), X_test).argmax(1).numpy()
         fp32_accuracy = float((fp32_predictions == parts["test"][1]).mean())

@@ -175,9 +175,9 @@ def rates(seconds: dict[str, float], batch: int, large: int | None) -> dict[str,
 
 def onnx_runners(files: dict[str, Path], threads: int, runtimes: tuple[str, ...] | None = None) -> dict[str, Runner]:
     """``{"<runtime>_<precision>": runner}`` for the ONNX files ``{"fp32": path, "int8": path}`` in every
-    runtime of :mod:`toolpath.training.runtimes` (or those of ``runtimes``; torch tensors in, like the
+    runtime of :mod:`toolpath.inference.runtimes` (or those of ``runtimes``; torch tensors in, like the
     torch variants)."""
-    from toolpath.training import runtimes as known
+    from toolpath.inference import runtimes as known
 
     def on_tensors(run: known.Runner) -> Runner:
         return lambda x: run(x.numpy())
@@ -252,7 +252,7 @@ def shipped(entry: dict, qat_entries: dict[str, dict], max_drop_points: float) -
     throughput batch among the runtimes whose INT8 file lost at most ``max_drop_points`` of test
     accuracy against the FP32 network on every shape (``qat_entries``: the qat stage's record of
     the model per shape).  With none eligible, ``runtime`` is None and ``why`` says so."""
-    from toolpath.training.runtimes import RUNTIMES
+    from toolpath.inference.runtimes import RUNTIMES
 
     drops = {r: [q.get("runtimes", {}).get(r, {}).get("accuracy_drop_points") for q in qat_entries.values()]
              for r in RUNTIMES}

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from toolpath.optimize.gradient import central_difference_gradient, fitness_gradient
-from toolpath.optimize.problem import ProblemBatch, SmoothingProblem
-from toolpath.optimize.result import SmoothingResult
+from toolpath.smoothing.gradient import central_difference_gradient, fitness_gradient
+from toolpath.smoothing.problem import ProblemBatch, SmoothingProblem
+from toolpath.smoothing.result import SmoothingResult
 
 GRADIENTS = ("exact", "central", "off")
 INITIALISATIONS = ("perturb", "permute")

@@ -6,7 +6,7 @@
 * ``mean_filter`` and ``bezier`` are one-shot smoothers; in ``bound`` mode their result is projected
   onto the tolerance discs like every optimiser's candidates, so no method leaves the bound (and
   :func:`smooth` checks the exact two-sided distance of every ``bound`` result before returning it);
-* ``nacoa`` is :class:`toolpath.optimize.nacoa.NACOA`; ``nacoa_permute`` the same with the paper's
+* ``nacoa`` is :class:`toolpath.smoothing.nacoa.NACOA`; ``nacoa_permute`` the same with the paper's
   permuting initialisation;
 * ``coa``, ``hba``, ``avoa``, ``scso``, ``esoa``, ``pso`` are mealpy's, given NACOA's budget of evaluations
   (computed from its settings), its first population and the same seed.
@@ -21,11 +21,11 @@ from dataclasses import replace
 import numpy as np
 
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.optimize.mealpy_runs import MEALPY_CLASSES, encoding_shift, run_mealpy
-from toolpath.optimize.nacoa import NACOA, NACOASettings, initial_population
-from toolpath.optimize.problem import ProblemBatch, SmoothingProblem
-from toolpath.optimize.result import SmoothingResult
-from toolpath.optimize.smoothers import bezier_fit, mean_filter
+from toolpath.smoothing.mealpy_runs import MEALPY_CLASSES, encoding_shift, run_mealpy
+from toolpath.smoothing.nacoa import NACOA, NACOASettings, initial_population
+from toolpath.smoothing.problem import ProblemBatch, SmoothingProblem
+from toolpath.smoothing.result import SmoothingResult
+from toolpath.smoothing.smoothers import bezier_fit, mean_filter
 
 SMOOTHERS = ("mean_filter", "bezier")
 # "nacoa_permute" is NACOA with the paper's initialisation as written (Sec. 4.2.1: interior points

@@ -93,7 +93,7 @@ class Layout:
         return self.int8_dir(shape) / f"{model}.pt2"
 
     def int8_onnx(self, shape: str, model: str) -> Path:
-        """The INT8 graph as ONNX (QDQ): what ONNX Runtime and OpenVINO run (:mod:`toolpath.training.runtimes`)."""
+        """The INT8 graph as ONNX (QDQ): what ONNX Runtime and OpenVINO run (:mod:`toolpath.inference.runtimes`)."""
         return self.int8_dir(shape) / f"{model}.onnx"
 
     def train_metrics(self, shape: str, model: str) -> Path:
@@ -312,9 +312,9 @@ def load_classifier(path: Path, producer: str = "train") -> Any:
 
 
 def load_int8(path: Path, producer: str = "qat") -> Any:
-    """An INT8 ``.pt2`` program (:func:`toolpath.training.qat.load`), in eval mode; any failure to
+    """An INT8 ``.pt2`` program (:func:`toolpath.inference.qat.load`), in eval mode; any failure to
     load it is the file's problem, said in one line."""
-    from toolpath.training import qat
+    from toolpath.inference import qat
 
     if not path.is_file():
         raise ArtifactError(path, "INT8 model file not found", producer)

@@ -5,10 +5,10 @@ It reads the program, cuts its feed moves into 50-point windows, classifies each
 LocalCurvature rule by default, a trained FP32 ``.pt`` / INT8 ``.pt2`` model, or an ``.onnx`` file of the
 qat stage run in ONNX Runtime or OpenVINO, ``--runtime``), smooths the rough
 ones with the method their category maps to (mean filter, Bezier fit, NACOA; ``--method`` forces one)
-and rewrites the X/Y numbers of the moved G1 lines only (:mod:`toolpath.optimize.rewrite`).  The
+and rewrites the X/Y numbers of the moved G1 lines only (:mod:`toolpath.smooth.rewrite`).  The
 output is written to a temporary file and renamed; the input is never overwritten unless
 ``--in-place``, which first keeps it as ``IN.bak``.  ``--arcs`` also replaces runs of G1 lines by
-one G2/G3 where an arc lies within the tolerance (:mod:`toolpath.optimize.arc_weld`).  Problems in
+one G2/G3 where an arc lies within the tolerance (:mod:`toolpath.smooth.arc_weld`).  Problems in
 the input stop with ``FILE:LINE: message`` and exit code 1; wrong options with exit code 2.
 
 The smoothing settings and machine limits are the pipeline's defaults (``params.yaml``: ``optimize``
@@ -117,7 +117,7 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
     if not path.is_file():
         raise UsageError(f"{spec}: no such model file (or say --classifier rule)")
     if path.suffix == ".onnx":
-        from toolpath.training import runtimes
+        from toolpath.inference import runtimes
 
         try:
             run = runtimes.runner(path, runtime, threads=max(1, min(os.cpu_count() or 1, 4)))
@@ -128,7 +128,7 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
     import torch
 
     if path.suffix == ".pt2":
-        from toolpath.training.qat import load
+        from toolpath.inference.qat import load
 
         try:
             network = load(path)
@@ -136,7 +136,7 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
             reason = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
             raise InputError(f"{path}: not a readable INT8 model ({reason})") from None
     else:
-        from toolpath.artifacts import load_classifier
+        from toolpath.pipeline.artifacts import load_classifier
 
         try:
             model = load_classifier(path, "train")
@@ -181,9 +181,9 @@ def _progress(items: list) -> list:
 
 def run(args: argparse.Namespace) -> dict:
     from toolpath.gcode import GCodeError
-    from toolpath.optimize.rewrite import RewriteOptions
-    from toolpath.optimize.stream import Combined, smooth_parts
-    from toolpath.reports.smooth_report import summary, write_plot, write_report
+    from toolpath.smooth.report import summary, write_plot, write_report
+    from toolpath.smooth.rewrite import RewriteOptions
+    from toolpath.smooth.stream import Combined, smooth_parts
 
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
@@ -216,10 +216,10 @@ def run(args: argparse.Namespace) -> dict:
 
 
 def _weld(result, program, tolerance: float, start) -> None:
-    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.optimize.arc_weld`)."""
+    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`)."""
     from toolpath.gcode import ReaderOptions
     from toolpath.labels.windows import feed_runs
-    from toolpath.optimize.arc_weld import weld_arcs
+    from toolpath.smooth.arc_weld import weld_arcs
 
     smoothed = start.snapshot().read(result.text)
     text, arcs, lines, note = weld_arcs(smoothed, program, tolerance, start=start)

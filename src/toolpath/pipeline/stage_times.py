@@ -1,6 +1,6 @@
 """Run a command (``dvc repro``), pass its output through, and time every DVC stage it runs.
 
-Run: python -m toolpath.cli.stage_times [--out reports/pipeline_time.json] -- dvc repro
+Run: python -m toolpath.pipeline.stage_times [--out reports/pipeline_time.json] -- dvc repro
 
 DVC prints ``Running stage 'name':`` when a stage starts; a stage ends when the next one starts or
 the command ends.  Each stage's wall time therefore includes its interpreter start-up and imports,

@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from toolpath.optimize.nurbs import Nurbs
+from toolpath.corners.nurbs import Nurbs
 
 SAMPLES = 401  # parameters at which curvature and deviation are evaluated
 

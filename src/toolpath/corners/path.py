@@ -9,7 +9,7 @@ SDLS learn corners up to that leg).  The methods:
 
 * ``nurbs_pso`` — method 2 by PSO (Eq. 7-8); ``nurbs_net`` — FDLS / SDLS, checked, repaired or
   handed back to PSO (an answer sharper than method 1 at the same delta_max goes back too);
-  ``bspline`` and ``bezier`` — the comparison transitions of :mod:`toolpath.optimize.transitions`;
+  ``bspline`` and ``bezier`` — the comparison transitions of :mod:`toolpath.corners.transitions`;
 * a corner no method can smooth under Eq. 7 (or a near reversal) stays a sharp vertex, planned with
   the controller blend radius of :func:`toolpath.feedrate.polyline_radius`, and is reported.
 """
@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from toolpath.corners.curve import SAMPLES, Corner, CornerCurve, legs, method1_at
+from toolpath.corners.pso import PsoSettings, pso_corner
+from toolpath.corners.transitions import bezier_transition, bspline_transition
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, legs, method1_at
-from toolpath.optimize.corner_pso import PsoSettings, pso_corner
-from toolpath.optimize.transitions import bezier_transition, bspline_transition
 
 CORNER_METHODS = ("nurbs_pso", "nurbs_net", "bspline", "bezier")
 MAX_TURN = math.radians(175.0)  # beyond this a corner is a reversal: the tool stops there
@@ -59,7 +59,7 @@ class CornerResult:
     same delta_max (the largest arc within delta_max of the vertex and within half of each segment,
     :func:`toolpath.feedrate.polyline_radius`), the physical reference; and ``curvature_method1``,
     method 1's five-point NURBS on the same legs held to the same delta_max
-    (:func:`toolpath.optimize.corner.method1_at`), what FDLS takes as "before smoothing"."""
+    (:func:`toolpath.corners.curve.method1_at`), what FDLS takes as "before smoothing"."""
 
     vertex: int
     turn_deg: float
@@ -111,7 +111,7 @@ def surrogate_corner(nets: tuple, corner: Corner, delta_max: float, pso: PsoSett
     sharper answer goes back to PSO.  Where there is no reference to beat (method 1 cannot be held to
     delta_max), a repair can pinch the curve into a near cusp that Eq. 7 alone accepts, so the networks
     are not trusted there and PSO decides."""
-    from toolpath.optimize.corner_net import smooth_corner
+    from toolpath.corners.network import smooth_corner
 
     if not math.isfinite(limit):
         found, _ = pso_corner(corner, delta_max, settings=pso)

@@ -1,6 +1,6 @@
 """Two established corner transitions that stand in for the NURBS corner paper's refs. 20-21 (issue 9), both held to
 the same maximum approximation error delta_max and the same room along the legs as the NURBS of
-:mod:`toolpath.optimize.corner`, in the same corner frame (corner at the origin, legs going down).
+:mod:`toolpath.corners.curve`, in the same corner frame (corner at the origin, legs going down).
 
 * :func:`bspline_transition` — the symmetric cubic B-spline transition of Zhao, Zhu and Ding,
   "A real-time look-ahead interpolation methodology with curvature-continuous B-spline transition
@@ -26,8 +26,8 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, evaluate, judge
-from toolpath.optimize.nurbs import Nurbs
+from toolpath.corners.curve import SAMPLES, Corner, CornerCurve, evaluate, judge
+from toolpath.corners.nurbs import Nurbs
 
 DUAL_BEZIER_KNOTS = (0.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5, 1.0, 1.0, 1.0, 1.0)
 

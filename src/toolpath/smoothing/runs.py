@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from toolpath.labels.split import Split
-from toolpath.optimize.evaluate import convergence, window_row
-from toolpath.optimize.mealpy_runs import MEALPY_CLASSES
-from toolpath.optimize.methods import BASELINE_ONLY, METHODS, smooth
+from toolpath.smoothing.evaluate import convergence, window_row
+from toolpath.smoothing.mealpy_runs import MEALPY_CLASSES
+from toolpath.smoothing.methods import BASELINE_ONLY, METHODS, smooth
 
 
 def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int) -> list[tuple[int, int, bool]]:

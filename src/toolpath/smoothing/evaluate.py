@@ -9,7 +9,7 @@ import numpy as np
 
 from toolpath.geometry.curvature import arc_length, fitness, local_curvature, smoothness_penalty
 from toolpath.geometry.hausdorff import directed_hausdorff
-from toolpath.optimize.result import SmoothingResult
+from toolpath.smoothing.result import SmoothingResult
 
 # Table 6's complexity column: the paper's entries where it gives one, ours (same notation: t
 # iterations, p population, d dimension, n points) for the rest.

@@ -8,8 +8,8 @@ a reference of ``null`` accepts anything).  *Ranges* are the rules below, by dot
 (``*`` is one key), plus the checks that tie keys together (Table 1 bounds increasing, the split
 fractions summing to one, QAT freezing after its observers saw data, every shape configured).
 
-:func:`check` runs where a configuration is composed (``python -m toolpath.config``, the sweep)
-and, through :func:`toolpath.config.load`, in the first stage that reads a new ``params.yaml`` (so
+:func:`check` runs where a configuration is composed (``python -m toolpath.pipeline.config``, the sweep)
+and, through :func:`toolpath.pipeline.config.load`, in the first stage that reads a new ``params.yaml`` (so
 ``dvc exp run -S ...`` stops before any work); a checked file is remembered by its hash.
 """
 

@@ -1,8 +1,8 @@
 """Method 2's extra control points by PSO (the NURBS corner paper, Eq. 8), the whole swarm scored at once.
 
 A particle is P_{i+3}; its seven control points, its weights (the closed form of
-:func:`toolpath.optimize.corner.solve_weights`), its curve, curvature and errors are exactly those of
-:func:`toolpath.optimize.corner.evaluate`, computed for every particle in one pass: the knots and the
+:func:`toolpath.corners.curve.solve_weights`), its curve, curvature and errors are exactly those of
+:func:`toolpath.corners.curve.evaluate`, computed for every particle in one pass: the knots and the
 sample parameters never change, so the B-spline basis and its derivatives are a fixed (samples x 7)
 matrix and every curve is a matrix product (tested against the one-candidate route).
 """
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
-from toolpath.optimize.corner import SAMPLES, Corner, CornerCurve, _basis_at_half, evaluate, solve_weights
-from toolpath.optimize.nurbs import clamped_uniform_knots
+from toolpath.corners.curve import SAMPLES, Corner, CornerCurve, _basis_at_half, evaluate, solve_weights
+from toolpath.corners.nurbs import clamped_uniform_knots
 
 CONTROL_POINTS = 7
 
@@ -44,7 +44,7 @@ def _design() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """The angle abc at b (rad) per row, as :func:`toolpath.optimize.corner._angle`."""
+    """The angle abc at b (rad) per row, as :func:`toolpath.corners.curve._angle`."""
     u, v = a - b, c - b
     cos = np.einsum("pi,pi->p", u, v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1) + 1e-300)
     return np.arccos(np.clip(cos, -1.0, 1.0))
@@ -52,7 +52,7 @@ def _angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 def _leg_errors(samples: np.ndarray, corner: Corner) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per particle: the largest distance to the legs (delta_1), the largest distance outside the
-    wedge, and :func:`toolpath.optimize.corner.two_sided_bound` of the sampled curves (P, S, 2)."""
+    wedge, and :func:`toolpath.corners.curve.two_sided_bound` of the sampled curves (P, S, 2)."""
     phi = corner.half_opening
     cos, sin = math.cos(phi), math.sin(phi)
     x, y = samples[..., 0], samples[..., 1]
@@ -76,7 +76,7 @@ def _leg_errors(samples: np.ndarray, corner: Corner) -> tuple[np.ndarray, np.nda
 def swarm_fitness(corner: Corner, extras: np.ndarray, delta_max: float, delta_target: float,
                   curvature_limit: float = math.inf) -> np.ndarray:
     """Peak curvature of each particle's corner curve (1/mm), or inf where the candidate fails Eq. 7
-    (with the inside and two-sided rules of :func:`toolpath.optimize.corner.evaluate`) or reaches
+    (with the inside and two-sided rules of :func:`toolpath.corners.curve.evaluate`) or reaches
     ``curvature_limit``.  ``extras`` is (P, 2): P_{i+3} of each particle."""
     d0, d1, d2, half = _design()
     base = corner.method1_points()

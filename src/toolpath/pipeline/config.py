@@ -1,6 +1,6 @@
 """``conf/`` (Hydra) is the one source of truth; ``params.yaml`` is its composition.
 
-Run: ``python -m toolpath.config [OVERRIDE ...]`` (e.g. ``+experiment=smoke``) rewrites
+Run: ``python -m toolpath.pipeline.config [OVERRIDE ...]`` (e.g. ``+experiment=smoke``) rewrites
 ``params.yaml`` with DVC's own compose function, so the bytes equal what ``dvc exp run`` writes.
 Stages call :func:`load` and read only the sections they declare in ``dvc.yaml``.
 """
@@ -14,7 +14,7 @@ from typing import Any
 
 from omegaconf import DictConfig, ListConfig, OmegaConf
 
-from toolpath.seeds import seed_for
+from toolpath.pipeline.seeds import seed_for
 
 __all__ = ["compose", "compose_config", "flat", "load", "seed_for"]
 
@@ -47,13 +47,13 @@ def compose_config(root: Path, overrides: Sequence[str] = ()) -> DictConfig:
 
 
 def load(path: str | Path = PARAMS_FILE) -> DictConfig:
-    """The composed parameters, checked against ``conf/`` (:mod:`toolpath.schema`) the first time a
+    """The composed parameters, checked against ``conf/`` (:mod:`toolpath.pipeline.schema`) the first time a
     given ``params.yaml`` is read; one clear line when it is missing, unreadable or holds a bad value."""
-    from toolpath.schema import ConfigError
+    from toolpath.pipeline.schema import ConfigError
 
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path} not found: run `python -m toolpath.config` (or `make repro`) first")
+        raise FileNotFoundError(f"{path} not found: run `python -m toolpath.pipeline.config` (or `make repro`) first")
     try:
         cfg = OmegaConf.load(path)
     except Exception as exc:  # noqa: BLE001 - YAML and OmegaConf errors alike: one line naming the file
@@ -72,8 +72,8 @@ def reference(root: Path) -> dict:
 
 
 def validate(cfg: DictConfig | Mapping, root: Path, source: str = PARAMS_FILE) -> None:
-    """Check a composed configuration against ``root/conf`` (raises :class:`toolpath.schema.ConfigError`)."""
-    from toolpath.schema import check
+    """Check a composed configuration against ``root/conf`` (raises :class:`toolpath.pipeline.schema.ConfigError`)."""
+    from toolpath.pipeline.schema import check
 
     plain = OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else cfg
     check(plain, reference(root), source)
@@ -115,19 +115,19 @@ def flat(node: Any, prefix: str = "") -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     """Compose, check, then write ``params.yaml``; a bad override or value is one line and exit code 1,
     and ``params.yaml`` is left as it was."""
-    from toolpath.schema import ConfigError
+    from toolpath.pipeline.schema import ConfigError
 
     overrides = sys.argv[1:] if argv is None else argv
     root = Path.cwd()
     try:
         cfg = compose_config(root, overrides)
     except Exception as exc:  # noqa: BLE001 - Hydra's override / missing-config errors: one line, not 59
-        print(f"toolpath.config: {_one_line(exc)}", file=sys.stderr)
+        print(f"toolpath.pipeline.config: {_one_line(exc)}", file=sys.stderr)
         return 1
     try:
         validate(cfg, root, "the composed configuration")
     except ConfigError as exc:
-        print(f"toolpath.config: {exc}", file=sys.stderr)
+        print(f"toolpath.pipeline.config: {exc}", file=sys.stderr)
         return 1
     print(f"wrote {compose(overrides)}")
     return 0

@@ -3,7 +3,7 @@
 Stages and the sweep call these; domain packages receive the objects (dataclasses, plain dicts) and
 never read the config.  Each builder passes a config node to its dataclass with ``**``, so an unknown
 key there fails at once instead of being ignored.  The seeds derive from the global seed and stable
-names (:func:`toolpath.config.seed_for`); those names never change, so neither do the results.
+names (:func:`toolpath.pipeline.config.seed_for`); those names never change, so neither do the results.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from toolpath import config
-from toolpath.artifacts import Layout
+from toolpath.pipeline import config
+from toolpath.pipeline.artifacts import Layout
 
 
 def plain(node: Any) -> Any:
@@ -93,7 +93,7 @@ def qat_training(cfg: DictConfig, shape: str, model: str):
     """QAT's fine-tuning settings: the model's own training settings (so a shared or tuned learning
     rate carries over) at ``qat.lr_scale`` times the learning rate, for ``qat.epochs`` (or the model's
     ``qat.per_model.<model>.epochs``), its own seed.
-    QAT trains without early stopping or auxiliary losses (:func:`toolpath.training.qat.train_qat`)."""
+    QAT trains without early stopping or auxiliary losses (:func:`toolpath.inference.qat.train_qat`)."""
     from toolpath.training.loop import TrainSettings
 
     _, settings = training(cfg, shape, model)
@@ -123,7 +123,7 @@ def all_shapes_training(cfg: DictConfig) -> tuple[dict[str, Any], dict[str, Any]
 # ---- smoothing, corners, feedrate ------------------------------------------------------------------
 def smoothing(cfg: DictConfig) -> dict[str, Any]:
     """The ``optimize`` section as the smoothing methods take it (NACOA's settings are built from its
-    ``nacoa`` node by :func:`toolpath.optimize.methods.nacoa_settings`, which checks every key)."""
+    ``nacoa`` node by :func:`toolpath.smoothing.methods.nacoa_settings`, which checks every key)."""
     return plain(cfg.optimize)
 
 
@@ -139,7 +139,7 @@ def feed_band(cfg: DictConfig) -> float:
 
 def corner(cfg: DictConfig):
     """Corner smoothing settings, PSO's seed from the global seed."""
-    from toolpath.optimize.corner_path import CornerSettings
+    from toolpath.corners.path import CornerSettings
 
     c = plain(cfg.corner)
     return CornerSettings(delta_max=c["delta_max"], min_turn_deg=c["min_turn_deg"], max_leg=c["max_leg"],
