@@ -176,12 +176,12 @@ def test_a_report_section_with_a_corrupt_input_names_the_file_and_the_stage(tmp_
 
     report = builder.Report.__new__(builder.Report)
     report.categories = section  # the first section of the plan reads the corrupt file
-    with pytest.raises(SystemExit, match=r"m.json: not valid JSON .*; run `dvc repro train@gear`"):
+    with pytest.raises(SystemExit, match=r"m.json: not a readable JSON file .*; run `dvc repro train@gear`"):
         report.sections()
 
 
 def test_the_qat_stage_exits_non_zero_when_a_model_could_not_be_quantised():
-    from toolpath.stages.qat import stop_if_any_failed
+    from toolpath.inference.qat_runs import stop_if_any_failed
 
     report = {"train_windows": 10, "mlp": {"status": "ok"}, "cnn": {"status": "failed", "reason": "x"}}
     with pytest.raises(SystemExit, match=r"qat@gear: cnn could not be quantised; the reasons are in m.json"):

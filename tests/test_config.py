@@ -162,16 +162,6 @@ def test_every_committed_corner_is_inside_within_delta_max_and_every_plan_keeps_
                     assert stats["all_within_limits"] and stats["all_bracketed"], (shape, mode, method)
 
 
-def test_every_optimize_module_is_a_dependency_of_the_stage_it_serves():
-    """optimize and corner list their modules of src/toolpath/smoothing one by one: a new module must be listed."""
-    deps = {d for stage in yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"].values()
-            for d in stage.get("deps", []) if isinstance(d, str)}
-    # rewrite.py, arc_weld.py and stream.py serve `toolpath smooth` only (whole programs, not the stages' windows)
-    modules = {f"src/toolpath/smoothing/{p.name}" for p in (REPO / "src/toolpath/smoothing").glob("*.py")
-               if p.name not in ("rewrite.py", "arc_weld.py", "stream.py")}
-    assert modules <= deps, sorted(modules - deps)
-
-
 def test_no_conf_key_goes_unread():
     """Every leaf key of params.yaml is read somewhere: as an attribute or item, a keyword, a parameter or
     dataclass field it is unpacked into, or a ${...} in dvc.yaml (models.* are checked by instantiation)."""

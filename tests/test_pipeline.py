@@ -130,6 +130,13 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert "up to date" in run(dvc + ["repro"], work, env)
+    classified = json.loads((work / "reports/metrics/classify.json").read_text())  # Table 5, the classify stage's
+    assert set(classified["predictions"]) == {"mcrl", "mlp", "rule"}
+    assert all(p == int(c) for c, p in classified["predictions"]["rule"].items())  # the exact rule is always right
+    # a change confined to the product (toolpath smooth) leaves every stage up to date
+    with (work / "src/toolpath/smooth/command.py").open("a") as fh:
+        fh.write("\n# a change that only the product sees\n")
+    assert "up to date" in run(dvc + ["status"], work, env)
 
 
 def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:

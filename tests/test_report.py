@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import REPO, write_windows
+from conftest import REPO
 from toolpath.pipeline import config
 from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
 from toolpath.reports.readme import main as readme_main
@@ -116,24 +116,27 @@ def test_blocks_sections_and_summaries():
     assert table.rows[0] == ["1 smooth", "<= 1.9", "3 (75.0 %)"] and table.rows[-1] == ["all", "", "4 (100 %)"]
 
 
-def test_table5_draws_one_window_per_category_and_scores_each_model(tmp_path):
+def test_table5_draws_one_test_window_per_category_and_scores_each_model():
+    from toolpath.geometry import local_curvature
+    from toolpath.labels import categorize
     from toolpath.models.rule import LocalCurvatureRule
-    from toolpath.pipeline.artifacts import save_checkpoint
-    from toolpath.reports.builder import table5_predictions
-    from toolpath.training.classifier import to_checkpoint
+    from toolpath.training.examples import draw_per_category, predictions
 
     rng = np.random.default_rng(0)
     windows = rng.normal(size=(40, 50, 2)).cumsum(axis=1).astype(np.float32)
-    from toolpath.geometry import local_curvature
-    from toolpath.labels import categorize
-
     labels = categorize(local_curvature(windows.astype(np.float64))).astype(np.int8)
-    write_windows(tmp_path / "w.npz", windows, labels, np.full(40, 2))
+    test = np.arange(40) >= 10  # the first ten are training windows: never drawn
+    drawn = draw_per_category(windows, labels, test, (1, 2, 3, 4), seed=3)
+    assert set(drawn) == set(np.unique(labels[test]).tolist())
+    for category, window in drawn.items():
+        index = int(np.flatnonzero((windows == window).all(axis=(1, 2)))[0])
+        assert test[index] and labels[index] == category
+    assert draw_per_category(windows, labels, test, (1, 2, 3, 4), seed=3).keys() == drawn.keys()
     rule = LocalCurvatureRule().fit(windows)
-    save_checkpoint(to_checkpoint(rule), tmp_path / "rule.pt")
-    drawn, predictions = table5_predictions(tmp_path / "w.npz", {"rule": tmp_path / "rule.pt"}, seed=3)
-    assert set(drawn) == set(np.unique(labels).tolist())
-    assert predictions["rule"] == {c: c for c in drawn}  # the exact rule is right on every window
+    always_one = {"one": lambda batch: np.ones(len(batch), dtype=int)}
+    predicted = predictions(drawn, {"rule": rule.predict, **always_one})
+    assert predicted["rule"] == {c: c for c in drawn}  # the exact rule is right on every window
+    assert predicted["one"] == dict.fromkeys(drawn, 1)
 
 
 def test_drawn_window_keeps_its_category_and_says_when_it_falls_back():

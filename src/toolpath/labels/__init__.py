@@ -1,18 +1,19 @@
-"""Algorithm 1: 50-point windows of cutting motion labelled by LocalCurvature (Table 1)."""
+"""Algorithm 1: 50-point windows of cutting motion labelled by LocalCurvature (Table 1), and the split
+of windows by program.
 
-from toolpath.labels.split import Split, split_by_program
-from toolpath.labels.windows import (
-    CATEGORY_NAMES,
-    TABLE1_BOUNDS,
-    Windows,
-    categorize,
-    concat,
-    cut_windows,
-    feed_runs,
-    label_program,
-)
+The names below load on first use (PEP 562), so the split alone (:mod:`toolpath.labels.split`, which the
+windows file's schema uses) does not import the G-code reader.
+"""
 
-__all__ = [
-    "CATEGORY_NAMES", "TABLE1_BOUNDS", "Split", "Windows", "categorize", "concat",
-    "cut_windows", "feed_runs", "label_program", "split_by_program",
-]
+from importlib import import_module
+
+_HOMES = {"Split": "split", "split_by_program": "split", **{name: "windows" for name in (
+    "CATEGORY_NAMES", "TABLE1_BOUNDS", "Windows", "categorize", "concat", "cut_windows", "feed_runs", "label_program")}}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'toolpath.labels' has no attribute {name!r}")
+    return getattr(import_module(f"toolpath.labels.{_HOMES[name]}"), name)

@@ -28,8 +28,8 @@ from toolpath.labels.split import Split
 
 __all__ = ["CATEGORIES", "ArtifactError", "Layout", "SmoothedSet", "Split", "WindowSet", "category_index",
            "load_arrays", "load_checkpoint", "load_classifier", "load_int8", "load_smoothed", "load_windows",
-           "read_json", "read_rows",
-           "save_checkpoint", "save_smoothed", "save_windows", "write_json", "write_rows"]
+           "read_json", "read_rows", "save_checkpoint", "save_smoothed", "save_windows", "write_curves", "write_json",
+           "write_rows"]
 
 
 CATEGORIES = np.array([1, 2, 3, 4])  # Table 1's roughness categories, the labels of the windows file
@@ -140,6 +140,11 @@ class Layout:
     @property
     def inference_metrics(self) -> Path:
         return self.metrics / "inference.json"
+
+    @property
+    def classify_metrics(self) -> Path:
+        """Table 5: one drawn test window per category and every model's prediction (classify stage)."""
+        return self.metrics / "classify.json"
 
     @property
     def sequence_metrics(self) -> Path:
@@ -326,6 +331,20 @@ def load_int8(path: Path, producer: str = "qat") -> Any:
                             producer) from None
     model.eval()  # the exported-graph eval() switches dropout in place and returns None
     return model
+
+
+CURVE_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val_accuracy")
+
+
+def write_curves(history: Iterable[Any], path: Path) -> None:
+    """Per-epoch training records as the DVC plot's CSV (Figs. 6-7), fixed precision per column."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(CURVE_COLUMNS)
+        for r in history:
+            writer.writerow([r.epoch, f"{r.lr:.6g}", f"{r.train_loss:.6f}", f"{r.train_accuracy:.6f}",
+                             f"{r.val_loss:.6f}", f"{r.val_accuracy:.6f}"])
 
 
 # ---- JSON and CSV --------------------------------------------------------------------------------

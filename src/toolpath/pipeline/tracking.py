@@ -183,3 +183,31 @@ def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) 
         if params:
             mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
         yield run
+
+
+def log_model_run(name: str, tags: Mapping[str, str], params: Mapping[str, Any], curves: list,
+                  metrics: Mapping[str, float], artifacts: Mapping[str, Any]) -> None:
+    """One model's run nested in the active stage run: its per-epoch curves (each record's fields at
+    step = epoch), final metrics (step 0), params, dicts logged as JSON and files as artefacts (``name.json``
+    -> a dict, anything else -> a path).  One batch for the values: the stage process shares the cores
+    with the training workers."""
+    import time
+
+    import mlflow
+    from mlflow.entities import Metric, Param
+
+    stage = mlflow.active_run()
+    inherited = {k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")}
+    with mlflow.start_run(run_name=name, nested=True, experiment_id=stage.info.experiment_id,
+                          tags={**inherited, **tags}):
+        now = int(time.time() * 1000)
+        values = [Metric(k, float(v), now, record.epoch) for record in curves
+                  for k, v in vars(record).items() if k != "epoch"]
+        values += [Metric(k, float(v), now, 0) for k, v in metrics.items()]
+        mlflow.MlflowClient().log_batch(mlflow.active_run().info.run_id, metrics=values,
+                                        params=[Param(k, str(v)[:6000]) for k, v in params.items()])
+        for file_name, item in artifacts.items():
+            if file_name.endswith(".json") and isinstance(item, dict):
+                mlflow.log_dict(item, file_name)
+            else:
+                mlflow.log_artifact(str(item))

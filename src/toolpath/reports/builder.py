@@ -1,26 +1,19 @@
 """The report's sections: Tables 1-6 and Figures 6-11 of Li et al. beside ours, then Xie & Zhu's and
-the NURBS corner paper's results.  Reads only DVC outputs (at the paths of :class:`Layout`) and the
-composed parameters; each table and figure is written as it is built.  A section whose inputs are
-missing is kept as "missing", naming the files and the stage that makes them."""
+the NURBS corner paper's results (Tables 7-15, Figures 12-17).  Reads only DVC outputs (at the paths
+of :class:`Layout`, through the artifacts' readers) and the composed parameters; each table and figure
+is written as it is built.  A section whose inputs are missing is kept as "missing", naming the files
+and the stage that makes them."""
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from omegaconf import OmegaConf
 
-from toolpath.pipeline.artifacts import (
-    CATEGORIES,
-    Layout,
-    Split,
-    load_arrays,
-    load_classifier,
-    load_smoothed,
-    load_windows,
-)
+from toolpath.pipeline import artifacts
+from toolpath.pipeline.artifacts import Layout, load_arrays, load_smoothed, load_windows
 from toolpath.pipeline.seeds import seed_for
 from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, summary
 from toolpath.reports.document import Section
@@ -29,29 +22,12 @@ from toolpath.reports.speed import int8_gains, int8_profile, table4
 from toolpath.reports.tables import Table, categories_table, corpus_table, table2, table3
 
 
-def read_json(path: Path) -> dict:
-    import json
-
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except ValueError as exc:  # UnicodeDecodeError included
-        raise Corrupt(path, f"not valid JSON ({exc})") from None
-
-
 class Missing(Exception):
     """Inputs a section needs that are not there."""
 
     def __init__(self, paths: list[Path], stage: str) -> None:
         super().__init__(", ".join(map(str, paths)))
         self.paths, self.stage = paths, stage
-
-
-class Corrupt(Exception):
-    """An input file that is there but cannot be read; the section turns it into one line."""
-
-    def __init__(self, path: Path, reason: str) -> None:
-        super().__init__(f"{path}: {reason}")
-        self.path, self.reason = path, reason
 
 
 _required_by: list[str] = [""]  # the stage whose files the section being built asked for last
@@ -64,12 +40,13 @@ def require(paths: list[Path], stage: str) -> None:
         raise Missing(absent, stage)
 
 
+def read_json(path: Path) -> dict:
+    """A metrics file through the artifacts' reader: a corrupt one stops naming the stage to rerun."""
+    return artifacts.read_json(path, _required_by[0])
+
+
 def read_csv(path: Path) -> list[dict]:
-    try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            return list(csv.DictReader(fh))
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise Corrupt(path, f"not a readable CSV table ({exc})") from None
+    return artifacts.read_rows(path, _required_by[0])
 
 
 def read_columns(path: Path) -> dict[str, np.ndarray]:
@@ -77,7 +54,7 @@ def read_columns(path: Path) -> dict[str, np.ndarray]:
     try:
         return {k: np.array([float(r[k]) for r in rows]) for k in (rows[0] if rows else {})}
     except (TypeError, ValueError) as exc:
-        raise Corrupt(path, f"a column is not numeric ({exc})") from None
+        raise artifacts.ArtifactError(path, f"a column is not numeric ({exc})", _required_by[0]) from None
 
 
 class Report:
@@ -181,13 +158,13 @@ class Report:
                            int8_profile(inference)], "table4_inference")
 
     def classification(self) -> str:
-        shape = self.cfg.report.table5_shape
-        windows_path = self.layout.windows_file(shape)
-        models = {m: self.layout.checkpoint(shape, m) for m in self.cfg.train.models}
-        require([windows_path, *models.values()], "train")
-        drawn, predictions = table5_predictions(windows_path, models, seed_for(self.cfg.seed, "report"))
-        table = Table(f"Table 5: one seeded random test window per category ({shape}), each model's prediction",
-                      ["model", *(f"category {c}" for c in drawn), "correct (paper)"])
+        path = self.layout.classify_metrics
+        require([path], "classify")
+        data = read_json(path)
+        drawn = {int(c): np.array(w) for c, w in data["windows"].items()}
+        predictions = {m: {int(c): int(p) for c, p in by.items()} for m, by in data["predictions"].items()}
+        table = Table(f"Table 5: one seeded random test window per category ({data['shape']}), each model's "
+                      "prediction", ["model", *(f"category {c}" for c in drawn), "correct (paper)"])
         for model, predicted in predictions.items():
             right = sum(predicted[c] == c for c in drawn)
             table.add([model, *("correct" if predicted[c] == c else f"wrong ({predicted[c]})" for c in drawn),
@@ -318,26 +295,8 @@ class Report:
                 result.append(Section(title, build()))
             except Missing as missing:
                 result.append(Section(title, missing=[str(p) for p in missing.paths], stage=missing.stage))
-            except Corrupt as bad:
-                raise SystemExit(f"{bad.path}: {bad.reason}; run `dvc repro {_required_by[0]}`") from None
             except (KeyError, TypeError, IndexError, ValueError) as exc:  # a file of the right kind, wrong content
                 raise SystemExit(f"report section {title!r}: an input of `dvc repro {_required_by[0]}` is malformed "
                                  f"({type(exc).__name__}: {exc})") from None
         return result
 
-
-def table5_predictions(windows_path: Path, models: dict[str, Path], seed: int) -> tuple[dict, dict]:
-    """One seeded random test window per category, and each model's predicted category for it."""
-    data = load_windows(windows_path)
-    rng = np.random.default_rng(seed)
-    drawn = {}
-    for category in CATEGORIES:
-        pool = np.flatnonzero((data.label == category) & (data.split == Split.TEST))
-        if len(pool):
-            drawn[int(category)] = data.windows[rng.choice(pool)]
-    batch = np.stack(list(drawn.values()))
-    predictions = {}
-    for model, path in models.items():
-        predicted = load_classifier(path).predict(batch)
-        predictions[model] = {c: int(p) for c, p in zip(drawn, predicted, strict=True)}
-    return drawn, predictions

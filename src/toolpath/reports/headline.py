@@ -7,23 +7,17 @@ flattens its metrics files (``table3.gear.mcrl.test_accuracy``).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from toolpath.pipeline.artifacts import Layout
+from toolpath.pipeline.artifacts import Layout, read_json
 
 PAPER_SMOOTHERS = ("mean_filter", "bezier", "nacoa")
 
 
 def _load(path: Path, producer: str) -> dict | None:
     """The metrics file, None when absent (a stage not run); a corrupt one stops with its name."""
-    if not path.is_file():
-        return None
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except ValueError as exc:
-        raise SystemExit(f"{path}: not valid JSON ({exc}); run `dvc repro {producer}`") from None
+    return read_json(path, producer) if path.is_file() else None
 
 
 def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:

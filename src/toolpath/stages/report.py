@@ -1,4 +1,5 @@
-"""The report: Tables 1-6 and Figures 6-11 of Li et al. beside ours.  Run: python -m toolpath.stages.report
+"""The report: Li et al.'s Tables 1-6 and Figures 6-11 beside ours, then Xie & Zhu's and the NURBS corner
+paper's results (our Tables 7-15, Figures 12-17).  Run: python -m toolpath.stages.report
 
 Reads only DVC outputs and writes ``<paths.report>/report.md``, ``tables/table<N>_<name>.{md,tex}``,
 ``figures/fig<N>_<name>.{png,pdf}`` and ``readme_block.md`` (the headline figure and the Table 3 /

@@ -11,18 +11,12 @@ processes, so the pipeline does not pay interpreter and MLflow start-up once per
 
 from __future__ import annotations
 
-import csv
-import time
-from pathlib import Path
-
 import numpy as np
 
 from toolpath.models.registry import parameter_count
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.workers import progress, shape_arg
 from toolpath.training import replicates
-
-PLOT_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val_accuracy")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -66,48 +60,24 @@ def _cost(job: replicates.Job, cfg) -> float:
 
 
 def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: list, programs: dict) -> None:
-    import mlflow
-
     runs = sorted(runs, key=lambda o: o.job.replicate)
     first = runs[0]
     summary = replicates.summarise(runs, programs["test"], config.seed_for(cfg.seed, "bootstrap", shape, model))
     metrics = {**first.metrics, "replicates": summary}
     artifacts.write_json(metrics, layout.train_metrics(shape, model))
-    _write_curves(first.history, layout.train_curves(shape, model))
+    artifacts.write_curves(first.history, layout.train_curves(shape, model))
     artifacts.write_json({"train_seconds": [o.seconds for o in runs], "threads": cfg.train.common.threads},
                          layout.train_timing(shape, model))
     checkpoint = layout.checkpoint(shape, model)
     artifacts.save_checkpoint(first.checkpoint, checkpoint)
-    params = {**config.flat(first.job.network, "model"), **config.flat(first.job.settings, "train")}
-    stage = mlflow.active_run()
-    with mlflow.start_run(run_name=f"train@{shape}-{model}", nested=True, experiment_id=stage.info.experiment_id,
-                          tags={**{k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")},
-                                "shape": shape, "model": model}):
-        from mlflow.entities import Metric, Param
-
-        now = int(time.time() * 1000)
-        # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure
-        values = [Metric(k, float(v), now, record.epoch) for record in first.history
-                  for k, v in vars(record).items() if k != "epoch"]
-        values += [Metric(k, float(v), now, 0) for k, v in config.flat(metrics).items()
-                   if isinstance(v, int | float) and not isinstance(v, bool)]
-        values.append(Metric("train_seconds", sum(o.seconds for o in runs), now, 0))
-        # one batch per model: the stage process shares the cores with the training workers
-        mlflow.MlflowClient().log_batch(mlflow.active_run().info.run_id, metrics=values,
-                                        params=[Param(k, str(v)[:6000]) for k, v in params.items()])
-        # the report stage draws the confusion matrices; MLflow keeps the numbers
-        mlflow.log_dict({"confusion_test": metrics["test"]["confusion"]}, "confusion_test.json")
-        mlflow.log_artifact(str(checkpoint))
-
-
-def _write_curves(history: list, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(PLOT_COLUMNS)
-        for r in history:
-            writer.writerow([r.epoch, f"{r.lr:.6g}", f"{r.train_loss:.6f}", f"{r.train_accuracy:.6f}",
-                             f"{r.val_loss:.6f}", f"{r.val_accuracy:.6f}"])
+    # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure;
+    # the report stage draws the confusion matrices, MLflow keeps the numbers
+    finals = {k: v for k, v in config.flat(metrics).items() if isinstance(v, int | float) and not isinstance(v, bool)}
+    tracking.log_model_run(f"train@{shape}-{model}", {"shape": shape, "model": model},
+                           {**config.flat(first.job.network, "model"), **config.flat(first.job.settings, "train")},
+                           first.history, {**finals, "train_seconds": sum(o.seconds for o in runs)},
+                           {"confusion_test.json": {"confusion_test": metrics["test"]["confusion"]},
+                            "checkpoint": checkpoint})
 
 
 if __name__ == "__main__":

@@ -1,6 +1,21 @@
-"""Training and evaluation of the window classifiers: the loop, and the scikit-learn estimator around it."""
+"""Training and evaluation of the window classifiers: the loop (:mod:`~toolpath.training.loop`), the
+scikit-learn estimator around it (:mod:`~toolpath.training.classifier`), Table 3's metrics
+(:mod:`~toolpath.training.metrics`), seeds and intervals (:mod:`~toolpath.training.replicates`),
+generalisation (:mod:`~toolpath.training.generalise`) and Table 5's drawn windows
+(:mod:`~toolpath.training.examples`).
 
-from toolpath.training.classifier import TorchClassifier
-from toolpath.training.loop import EpochRecord, TrainSettings, fit_network, predict_logits
+The names below load on first use (PEP 562): the metrics alone (what the report reads) do not import torch.
+"""
 
-__all__ = ["EpochRecord", "TorchClassifier", "TrainSettings", "fit_network", "predict_logits"]
+from importlib import import_module
+
+_HOMES = {"TorchClassifier": "classifier", **{name: "loop" for name in (
+    "EpochRecord", "TrainSettings", "fit_network", "predict_logits")}}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'toolpath.training' has no attribute {name!r}")
+    return getattr(import_module(f"toolpath.training.{_HOMES[name]}"), name)

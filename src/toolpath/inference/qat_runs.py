@@ -1,0 +1,91 @@
+"""The qat stage's work as functions: the splits QAT trains on, one model quantised in a worker process,
+every model of a shape side by side, and the shape's record (Sec. 5.1.2, Table 4)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import traceback
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from toolpath.inference.qat import quantize_one
+from toolpath.pipeline import artifacts
+
+TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
+
+
+def training_parts(data: artifacts.WindowSet, subset: int | None, seed: int) -> dict[str, tuple]:
+    """Every split as (float32 windows, class index 0-3); the training split cut to a seeded ``subset``."""
+    parts = {s.label: (data.part(s)[0].astype(np.float32), artifacts.category_index(data.part(s)[1]))
+             for s in artifacts.Split}
+    if subset is not None and subset < len(parts["train"][0]):
+        keep = np.sort(np.random.default_rng(seed).choice(len(parts["train"][0]), subset, replace=False))
+        parts["train"] = (parts["train"][0][keep], parts["train"][1][keep])
+    return parts
+
+
+def worker(job: tuple) -> tuple[dict, float, str | None]:
+    """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
+    name, fp32_file, producer, parts, train_settings, freeze_last, out, onnx, threads, float_modules, *flags = job
+    conv1d, reduce, outputs = flags
+    torch.set_num_threads(threads)
+    torch.use_deterministic_algorithms(True)
+    artifacts.load_classifier(fp32_file, producer)  # a corrupt file stops the stage, it is no QAT result
+    checkpoint = artifacts.load_checkpoint(fp32_file, producer)
+    try:
+        entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
+                                      float_modules=float_modules, onnx=onnx, threads=threads,
+                                      quantize_conv1d=conv1d, reduce_range=reduce, quantize_outputs=outputs)
+        return entry, seconds, None
+    except Exception as exc:  # a route that fails is a result to report, not a crash
+        return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
+
+
+def run_all(jobs: list[tuple], workers: int, expected_seconds, progress) -> list[tuple]:
+    """Every job in spawned workers, the longest expected first so two workers finish together; results
+    in job order (the same output for any schedule)."""
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {job[0]: pool.submit(worker, job) for job in sorted(jobs, key=lambda job: -expected_seconds(job[0]))}
+        return [futures[job[0]].result() for job in progress(jobs)]
+
+
+def record(jobs: list[tuple], outputs: list[tuple], fp32_tests: dict[str, dict], out_dir: Path) -> tuple[dict, dict]:
+    """(entries, seconds) per model: each QAT entry beside its FP32 test figures and the accuracy drop; a
+    failed model's traceback goes to ``<out_dir>/<model>.failed.txt``."""
+    report, timing = {}, {}
+    for (name, fp32_file, *_), (entry, seconds, failure) in zip(jobs, outputs, strict=True):
+        fp32 = fp32_tests[name]
+        if failure is not None:
+            (out_dir / f"{name}.failed.txt").write_text(failure)
+        entry["fp32_test"] = {k: fp32[k] for k in TABLE3}
+        entry["fp32_file_bytes"] = fp32_file.stat().st_size
+        if entry["status"] == "ok":
+            entry["accuracy_drop_points"] = 100.0 * (fp32["accuracy"] - entry["test"]["accuracy"])
+        report[name] = entry
+        timing[name] = {"qat_seconds": seconds}
+    return report, timing
+
+
+def mlflow_metrics(report: dict) -> dict[str, float]:
+    """Each quantised model's INT8 Table 3 figures and accuracy drops (per runtime too)."""
+    out = {}
+    for name, entry in report.items():
+        if not isinstance(entry, dict) or entry.get("status") != "ok":
+            continue
+        out |= {f"{name}.int8.{k}": entry["test"][k] for k in TABLE3}
+        out[f"{name}.accuracy_drop_points"] = entry["accuracy_drop_points"]
+        for runtime, row in entry.get("runtimes", {}).items():
+            if "accuracy_drop_points" in row:
+                out[f"{name}.{runtime}.accuracy_drop_points"] = row["accuracy_drop_points"]
+    return out
+
+
+def stop_if_any_failed(report: dict, shape: str, metrics_file, out_dir) -> None:
+    """Exit non-zero (after the metrics are written) when a model could not be quantised: the stage
+    could not do its work, and DVC must not cache it as done."""
+    if failed := [name for name, entry in report.items() if isinstance(entry, dict) and entry["status"] != "ok"]:
+        raise SystemExit(f"qat@{shape}: {', '.join(failed)} could not be quantised; the reasons are in "
+                         f"{metrics_file} and {out_dir}/<model>.failed.txt")

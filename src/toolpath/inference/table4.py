@@ -1,0 +1,56 @@
+"""The benchmark stage's work as functions (Table 4): the FP32 networks exported as ONNX in their INT8
+graph's form, side by side before any timing, and each model's files and per-operator profiles."""
+
+from __future__ import annotations
+
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import torch
+
+from toolpath.inference.qat import fp32_twin
+from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile
+from toolpath.pipeline import artifacts
+
+
+def export_fp32(job: tuple) -> int:
+    """One FP32 network as ONNX in its INT8 graph's form (in a worker process, on one thread)."""
+    checkpoint, producer, float_modules, quantize_conv1d, example, out = job
+    torch.set_num_threads(1)
+    net = artifacts.load_classifier(checkpoint, producer).network_.eval()
+    return export_onnx(fp32_twin(net, float_modules, quantize_conv1d), example, out)
+
+
+def export_all(jobs: list[tuple], workers: int) -> None:
+    """Every export in spawned processes (up to 15 s each for the unrolled recurrent models)."""
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as exporters:
+        list(exporters.map(export_fp32, jobs))
+
+
+def files_and_profiles(fp32_checkpoint: Path, int8_model: Path, fp32_onnx: Path, int8_onnx: Path,
+                       qat_metrics: Path, threads: int, batch) -> dict:
+    """The sizes of a model's four files (None for an INT8 file the qat stage did not write, with the
+    reason) and, where its INT8 ONNX file exists, each runtime's per-operator profile of both ONNX files:
+    why INT8 is, or is not, faster."""
+    entry = {"fp32_file_bytes": fp32_checkpoint.stat().st_size,
+             "int8_file_bytes": int8_model.stat().st_size if int8_model.is_file() else None,
+             "fp32_onnx_file_bytes": fp32_onnx.stat().st_size,
+             "int8_onnx_file_bytes": int8_onnx.stat().st_size if int8_onnx.is_file() else None}
+    if not int8_model.is_file():
+        entry["int8_missing"] = f"{int8_model} not found (see {qat_metrics})"
+    if int8_onnx.is_file():
+        entry["op_profile"] = {r: {p: op_profile(f, r, threads, batch)
+                                   for p, f in (("fp32", fp32_onnx), ("int8", int8_onnx))} for r in RUNTIMES}
+    return entry
+
+
+def draw_inputs(pool: torch.Tensor, batch: int, large: int | None, seed: int) -> dict[str, torch.Tensor]:
+    """The timed inputs, seeded draws from ``pool``: one window (``b1``), ``batch`` windows and, where
+    ``large`` is set, ``large`` windows (all prefixes of one draw)."""
+    draws = torch.Generator().manual_seed(seed)
+    pick = torch.randint(0, len(pool), (max(batch, large or 0),), generator=draws)
+    inputs = {"b1": pool[pick[:1]], "batch": pool[pick[:batch]]}
+    if large:
+        inputs["large"] = pool[pick[:large]]
+    return inputs
