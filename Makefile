@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 export DVC_NO_ANALYTICS := 1
 
-.PHONY: install repro readme test test-fast bench smooth-example params lint clean-venv
+.PHONY: install repro readme test test-fast core-check bench smooth-example params lint clean-venv
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -48,6 +48,10 @@ test: install
 
 test-fast: install
 	$(VENV)/bin/pytest -m "not slow"
+
+## The core install alone (no extras) in a fresh venv, then `toolpath smooth` on a corpus program (CI runs it).
+core-check:
+	bash .ci/core-install
 
 ## Benchmarks (speed and memory figures live here, never in tests): writes reports/bench/*.json, then
 ## re-measures Table 4 (the `benchmark` stage's reports/metrics/inference.json; needs `make repro` first).
