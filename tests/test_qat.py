@@ -48,10 +48,12 @@ def test_mcrl_keeps_its_recurrent_layers_float_after_qat():
     net = MCRL().eval()
     result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1)
     ops = qat.op_precision(result.model)
-    # the fused RNN / LSTM kernels have no INT8 form; the first RNN's unrolled steps share one weight,
-    # which the x86 quantizer leaves float
-    assert ops["int8"]["linear"] >= 20 and ops["float"]["lstm"] == 3 and ops["float"]["rnn_tanh"] == 2
-    assert ops["float"]["linear"] == 22  # 20 steps, plus the sequence and context shares of W_ih
+    # the fused RNN / LSTM kernels have no INT8 form: every one stays float, one per fused recurrent module of
+    # the network (MCRL's first RNN runs its own unrolled steps, linear layers); the linear layers are quantised
+    recurrent = [m for m in net.modules() if type(m) in (torch.nn.RNN, torch.nn.LSTM)]
+    assert "lstm" not in ops["int8"] and "rnn_tanh" not in ops["int8"]
+    assert ops["float"].get("lstm", 0) + ops["float"].get("rnn_tanh", 0) == len(recurrent) > 0
+    assert ops["int8"].get("linear", 0) > 0
 
 
 def test_timed_and_branch_profile_report_every_part():
@@ -171,7 +173,9 @@ def test_quantize_conv1d_gives_the_convolutions_int8():
     result = qat.train_qat(net, X, y, TrainSettings(lr=1e-4, epochs=2, batch_size=32), X[:8], y[:8], freeze_last=1,
                            quantize_conv1d=True)
     ops = qat.op_precision(result.model)
-    assert ops["int8"].get("conv2d", 0) == 3 and "conv1d" not in ops["float"]  # embed, depthwise, pointwise
+    convolutions = sum(isinstance(m, torch.nn.Conv1d) for m in net.modules())  # embed, depthwise, pointwise
+    assert ops["int8"].get("conv2d", 0) == convolutions > 0  # every one, as a 2-D INT8 convolution
+    assert "conv1d" not in ops["float"] and "conv2d" not in ops["float"]
 
 
 def test_quantize_outputs_fake_quantizes_what_a_convolution_feeds_a_float_op():

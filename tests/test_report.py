@@ -189,5 +189,5 @@ def test_headline_names_a_corrupt_metrics_file_and_skips_an_absent_one(tmp_path)
     assert headline(layout, ["gear"], ["mcrl"]) == ({}, {})  # nothing run yet: nothing to report
     layout.train_metrics("gear", "mcrl").parent.mkdir(parents=True)
     layout.train_metrics("gear", "mcrl").write_text("{")
-    with pytest.raises(SystemExit, match=r"train/gear/mcrl.json: not a readable JSON file .*; run `dvc repro train@gear`"):
+    with pytest.raises(SystemExit, match=r"mcrl.json: not a readable JSON file .*; run `dvc repro train@gear`"):
         headline(layout, ["gear"], ["mcrl"])

@@ -23,10 +23,15 @@ def test_processes_opening_a_new_sqlite_store_at_once_all_succeed(tmp_path):
     assert len(set(ids)) == 1  # one experiment, created once
 
 
-def test_default_store_waits_for_the_write_lock(monkeypatch, tmp_path):
+def test_default_store_is_the_sqlite_file_at_the_repository_root(monkeypatch, tmp_path):
+    """Without MLFLOW_TRACKING_URI the store is DVC_ROOT/mlflow.db (also for a queued experiment, which runs
+    in a temporary copy): opening it creates that file and the project's experiment, and a second client
+    finds the same experiment."""
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
     monkeypatch.setenv("DVC_ROOT", str(tmp_path))
-    assert tracking.tracking_uri() == f"sqlite:///{tmp_path}/mlflow.db?timeout={tracking.SQLITE_BUSY_SECONDS}"
+    first = tracking.experiment_id(tracking.client())
+    assert (tmp_path / "mlflow.db").is_file()
+    assert tracking.experiment_id(tracking.client()) == first
 
 
 def test_retry_gives_up_on_errors_that_are_not_races():

@@ -1,0 +1,160 @@
+"""Each table builder of ``toolpath.reports`` on metrics of the committed schema with one value changed by
+hand: the value must appear where it belongs, and what must be flagged (a degenerate model, limits broken,
+a corner kept sharp, a ranking unlike the paper's, a colliding plan) is flagged.  The bases are the committed
+default-profile metrics files, read only for their shape: every asserted figure is the one set here."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+
+from conftest import REPO
+from toolpath.reports import corner_report, sequencing, smoothing, speed, tables
+from toolpath.training.metrics import DEGENERATE
+
+METRICS = REPO / "reports" / "metrics"
+SHAPES = ("gear", "pentagram", "maple_leaf")
+
+
+def load(relative: str) -> dict:
+    return json.loads((REPO / "reports" / relative).read_text())
+
+
+def row_of(table: tables.Table, first: str) -> list[str]:
+    found = [row for row in table.rows if row[0] == first or row[0].startswith(first + " (")]
+    assert found, f"no row {first!r} in {table.title!r}"
+    return found[0]
+
+
+# ---- classification ----------------------------------------------------------------------------------
+def test_table3_shows_a_models_mean_and_flags_a_degenerate_one():
+    summaries = {m: load(f"metrics/train/gear/{m}.json")["replicates"] for m in ("mcrl", "mlp", "cnn")}
+    summaries["mlp"]["test"]["accuracy"]["mean"] = 0.123456
+    summaries["cnn"] = copy.deepcopy(summaries["cnn"]) | {"degenerate": summaries["cnn"]["replicates"]}
+    table = tables.table3("gear", summaries)
+    assert row_of(table, "mlp")[1].startswith("12.35")
+    assert row_of(table, "cnn")[1:1 + len(tables.TABLE3_COLUMNS)] == [DEGENERATE] * len(tables.TABLE3_COLUMNS)
+    assert row_of(table, "mcrl")[1].startswith("**")  # the best scored mean is bold, the degenerate one is not
+    summaries["mlp"]["test"]["accuracy"]["mean"] = 0.999
+    assert row_of(tables.table3("gear", summaries), "mlp")[1].startswith("**99.90")
+
+
+def test_table2_puts_the_profiles_settings_beside_the_papers():
+    ours = {"gear": {"lr": 0.000777, "decay_rate": 0.5, "decay_steps": 123, "batch_size": 64, "epochs": 9}}
+    table = tables.table2("smoke", ours, {"gear": {"mcrl_epochs": 7, "mcrl_seconds": 90.0, "all_seconds": 600.0}})
+    mine = table.rows[1]
+    assert mine[:7] == ["gear", "profile `smoke` (this report)", "0.000777", "0.5", "123", "64", "7 of 9"]
+    assert mine[7:] == ["1.5 min", "10.0 min"]
+    assert len(table.rows) == 2  # a shape the profile does not run has no rows
+
+
+def test_corpus_table_leaves_an_origin_without_windows_blank():
+    classes = {str(c): {"count": 2, "recall": 0.5 if c < 4 else None} for c in (1, 2, 3, 4)}
+    entry = {"windows": 8, "rough_windows": 6, "accuracy": 0.875, "f1": 0.8, "majority_accuracy": 0.25,
+             "per_class": classes}
+    table = tables.corpus_table({"all": entry, "arcs": {"windows": 0}, "lines": entry})
+    assert table.rows[0][:6] == ["all windows", "8", "6", "87.5", "80.0", "25.0"]
+    assert table.rows[0][-1] == "0 (-)"  # no recall for a category with no window
+    assert table.rows[1][1] == "0" and set(table.rows[1][2:]) == {"-"}
+
+
+# ---- Table 4 -------------------------------------------------------------------------------------------
+def test_table4_shows_each_variants_throughput():
+    inference = load("metrics/inference.json")
+    inference["models"]["mcrl"]["fp32_eager"]["windows_per_s"] = 123456.0
+    table = speed.table4(inference, list(SHAPES))
+    rows = [r for r in table.rows if r[0] == "mcrl"]
+    assert any("123,456" in r for r in rows)
+    assert table.rows[-1][0] == "rule"
+
+
+# ---- smoothing -----------------------------------------------------------------------------------------
+def optimize_metrics() -> tuple[dict, dict]:
+    return ({s: load(f"metrics/optimize/{s}.json") for s in SHAPES},
+            {s: load(f"timing/optimize/{s}.json") for s in SHAPES})
+
+
+def test_table6_pools_each_optimisers_reduction_over_the_shapes():
+    metrics, timing = optimize_metrics()
+    for shape, value in zip(SHAPES, (10.0, 20.0, 33.0), strict=True):
+        metrics[shape]["head_to_head"]["bound"]["nacoa"]["mean_reduction_pct"] = value
+    nacoa = row_of(smoothing.table6(metrics, timing), "NACOA")
+    assert nacoa[7] == "21.0"  # the mean over the three shapes, bound mode
+
+
+def test_reduction_table_shows_ours_beside_the_paper_and_flags_a_ranking_unlike_the_papers():
+    metrics, _ = optimize_metrics()
+    stats = metrics["gear"]["methods"]["bound"]["plain"]
+    stats["nacoa"]["mean_reduction_pct"], stats["bezier"]["mean_reduction_pct"] = 12.34, 50.0
+    stats["mean_filter"]["mean_reduction_pct"] = 40.0
+    table = smoothing.reduction_table(metrics)
+    gear_bound = [r for r in table.rows if r[0] == "gear" and r[1] == "bound"][0]
+    assert "12.3 (78, -65.7)" in gear_bound
+    assert any(n.startswith("gear, bound mode: Bezier > mean filter > NACOA (not the paper's") for n in table.notes)
+    stats["nacoa"]["mean_reduction_pct"] = 90.0
+    assert any(n.startswith("gear, bound mode:") and "as in the paper" in n
+               for n in smoothing.reduction_table(metrics).notes)
+
+
+# ---- corners and feed -----------------------------------------------------------------------------------
+def test_corner_cases_table_shows_each_time_and_flags_broken_limits():
+    metrics = load("metrics/corner.json")
+    metrics["cases"]["w"]["g01"]["within_limits"] = False
+    metrics["cases"]["w"]["methods"]["nurbs_pso"]["time"] = 9.876
+    table = corner_report.cases_table(metrics)
+    g01 = [r for r in table.rows if r[0] == "w" and r[1] == "G01 with controller blend"][0]
+    assert g01[-1] == "NO"
+    assert any(r[0] == "w" and r[7] == "9.876" for r in table.rows)
+
+
+def test_corners_table_marks_a_corner_kept_sharp():
+    rows = [{"case": "w", "vertex": "3", "method": m, "source": source, "turn_deg": "90", "curvature_before": "2",
+             "curvature_method1": "1.5", "curvature_after": "0.75", "reduction_pct": "62.5",
+             "reduction_vs_method1_pct": "50", "error_mm": "0.05"}
+            for m, source in (("nurbs_pso", "pso"), ("bezier", "kept"))]
+    table = corner_report.corners_table(rows, "w", ["nurbs_pso", "bezier", "bspline"])
+    assert table.rows == [["3", "90.0", "2.000", "1.500", "0.750 (+62.5 % / +50.0 %), error 0.050", "kept sharp",
+                           "-"]]
+
+
+def test_surrogate_and_pso_study_tables_show_their_counts():
+    metrics = load("metrics/corner.json")
+    metrics["surrogates"]["sources"]["net"] = 17
+    table = corner_report.surrogate_table(metrics, {"pso_seconds_per_corner": 0.25})
+    assert table.rows[0][2] == "17" and table.rows[0][7] == "0.250" and table.rows[0][8] == "-"
+    metrics["pso_study"]["cheapest_within_enough"] = None
+    assert corner_report.pso_study_table(metrics).notes == []  # no size was enough: no claim
+
+
+def test_windows_table_shows_time_saved_and_a_dash_where_a_method_did_not_run():
+    per_shape = {s: load(f"metrics/feedrate/{s}.json") for s in SHAPES}
+    per_shape["gear"]["methods"]["bound"]["plain"]["nacoa"]["time_saved_pct"] = -4.25
+    del per_shape["pentagram"]["methods"]["bound"]["plain"]["nacoa"]
+    row = row_of(corner_report.windows_table(per_shape, "bound"), "nacoa")
+    assert row[1].startswith("-4.2 / ") and row[2] == "-"
+
+
+# ---- sequencing ------------------------------------------------------------------------------------------
+def test_sequencing_tables_show_travel_and_bold_only_a_collision_free_best():
+    metrics, timing = load("metrics/sequence.json"), load("timing/sequence.json")
+    sheet = metrics["sheets"]["58"]
+    sheet["s_shaped"]["empty_travel_mm"], sheet["s_shaped"]["collisions"] = 1.0, 0
+    sheet["gtsp"]["empty_travel_mm"], sheet["gtsp"]["collisions"] = 0.5, 3  # shorter, but it collides
+    baselines = sequencing.baselines_table(metrics)
+    assert row_of(baselines, "s_shaped")[1] == "**1 / 0**" and row_of(baselines, "gtsp")[1] == "0 / 3"
+    main = sequencing.sequencing_table(metrics, timing)
+    assert any(r[0] == "58" and r[1] == "yes" and r[4].startswith("1 ") for r in main.rows)
+    metrics["expansion"] = {"2": {"empty_travel_mm": 1234.4, "collisions": 1}}
+    assert sequencing.expansion_table(metrics, 68).rows == [["2", "1234", "1"]]
+
+
+@pytest.mark.parametrize("builder", [tables.table3, smoothing.reduction_table])
+def test_a_table_renders_markdown_and_latex_with_every_row(builder):
+    if builder is tables.table3:
+        table = builder("gear", {m: load(f"metrics/train/gear/{m}.json")["replicates"] for m in ("mcrl", "rule")})
+    else:
+        table = builder(optimize_metrics()[0])
+    assert table.markdown().count("\n| ") == len(table.rows) + 1  # the header row and every row
+    assert table.latex().count(r" \\") == len(table.rows) + 1
