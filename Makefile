@@ -37,7 +37,8 @@ repro: install
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.pipeline.stage_times -- $(VENV)/bin/dvc repro
 	$(PY) -m toolpath.reports.readme
 
-## Put the report's summary block (reports/readme_block.md, a DVC output) into README.md.
+## Put the measured figures into README.md: the report's summary block (reports/readme_block.md, a DVC output),
+## the pipeline's time (reports/pipeline_time.json) and the G-code speeds (reports/bench/gcode.json).
 readme: install
 	$(PY) -m toolpath.reports.readme
 

@@ -98,7 +98,8 @@ def test_readme_without_markers_is_refused(partial, capsys):
     report.main([])
     (partial / "README.md").write_text("# no markers\n")
     assert readme_main([]) == 2
-    assert "README.md: cannot write the report summary" in capsys.readouterr().err
+    assert "README.md: cannot write the measured figures (ValueError: README.md: report markers not found" in \
+        capsys.readouterr().err
     assert (partial / "README.md").read_text() == "# no markers\n"  # untouched
 
 

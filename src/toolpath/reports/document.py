@@ -100,9 +100,13 @@ def report_markdown(sections: Sequence[Section], profile: str, commit: str, clea
     return "\n".join(lines)
 
 
-def replace_block(text: str, block: str, name: str = "README.md") -> str:
-    """``text`` with everything between the report markers replaced by ``block``."""
-    begin, end = text.find(README_BEGIN), text.find(README_END)
+def replace_block(text: str, block: str, name: str = "README.md", marker: str = "report") -> str:
+    """``text`` with everything between the ``marker`` block's lines (``<!-- report:begin ...-->`` and
+    ``<!-- report:end -->`` for the report's) replaced by ``block``."""
+    begin_line = README_BEGIN if marker == "report" else f"<!-- {marker}:begin"
+    end_line = README_END if marker == "report" else f"<!-- {marker}:end -->"
+    begin, end = text.find(begin_line), text.find(end_line)
     if begin < 0 or end < begin:
-        raise ValueError(f"{name}: report markers not found (a line '{README_BEGIN}' followed by '{README_END}')")
-    return text[: begin + len(README_BEGIN)] + "\n" + block.rstrip() + "\n" + text[end:]
+        raise ValueError(f"{name}: {marker} markers not found (a line '{begin_line}' followed by '{end_line}')")
+    opened = text.index("\n", begin) if marker != "report" else begin + len(README_BEGIN)
+    return text[:opened] + "\n" + block.rstrip() + "\n" + text[end:]

@@ -1,0 +1,81 @@
+"""README.md and docs/ say what the code and the committed measurements say:
+
+* README's generated blocks (the report's summary, the pipeline's time, the G-code speeds) are what
+  ``make readme`` writes from the committed files: a block typed by hand, or left stale after a rerun, fails;
+* every ``toolpath.*`` name the docs mention exists (a module, or a name in one), and every ``python -m``
+  command they show names a module that exists;
+* the layout the README draws names the packages that are there.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from conftest import REPO
+from toolpath.reports import readme
+from toolpath.reports.document import replace_block
+
+DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+
+
+def test_readmes_measured_figures_are_the_committed_files():
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    for name, block in readme.blocks(REPO).items():
+        assert replace_block(text, block, marker=name) == text, f"README's {name} block is stale: run `make readme`"
+
+
+def test_the_time_block_names_every_family_and_the_total():
+    timing = {"total_seconds": 1500.4, "families": {"train": 900.0, "qat": 600.4}}
+    assert readme.time_block(timing).startswith("The last measured `dvc repro` of the default profile took 25.0 "
+                                                "minutes (1500 s; by stage family: train 900 s, qat 600 s)")
+
+
+def test_a_changed_source_makes_the_block_differ(tmp_path):
+    for name in ("reports/readme_block.md", "reports/pipeline_time.json", "reports/bench/gcode.json"):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes((REPO / name).read_bytes())
+    timing = tmp_path / "reports/pipeline_time.json"
+    timing.write_text(timing.read_text().replace('"total_seconds": ', '"total_seconds": 1'))
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    assert replace_block(text, readme.blocks(tmp_path)["time"], marker="time") != text
+
+
+def _module_file(dotted: str):
+    path = REPO / "src" / dotted.replace(".", "/")
+    for candidate in (path / "__init__.py", path.with_suffix(".py")):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _exists(dotted: str) -> bool:
+    """A module under src/, or a name its longest module prefix defines (def, class or assignment)."""
+    parts = dotted.rstrip(".").split(".")
+    for cut in range(len(parts), 0, -1):
+        found = _module_file(".".join(parts[:cut]))
+        if found is None:
+            continue
+        if cut == len(parts):
+            return True
+        text = found.read_text(encoding="utf-8")
+        if found.name == "__init__.py" and re.search(rf"[\"']{parts[cut]}[\"']", text):
+            return True  # a name the package loads on first use (PEP 562)
+        return bool(re.search(rf"^\s*(def|class) {parts[cut]}\b|^{parts[cut]}\b\s*[:=]|import .*\b{parts[cut]}\b",
+                              text, re.M))
+    return False
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_toolpath_name_in_the_docs_exists(doc):
+    names = set(re.findall(r"`(toolpath(?:\.\w+)+)", doc.read_text(encoding="utf-8")))
+    names |= set(re.findall(r"python -m (toolpath(?:\.\w+)*)", doc.read_text(encoding="utf-8")))
+    missing = sorted(n for n in names if not _exists(n))
+    assert not missing, f"{doc.name} names what the code does not have: {missing}"
+
+
+def test_the_readme_layout_lists_every_package():
+    layout = (REPO / "README.md").read_text(encoding="utf-8").split("## Layout", 1)[1]
+    packages = sorted(p.parent.name for p in (REPO / "src" / "toolpath").glob("*/__init__.py"))
+    assert [p for p in packages if f"{p}/" not in layout] == []
