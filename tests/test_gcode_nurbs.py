@@ -167,3 +167,28 @@ def test_g5_2_blocks_read_the_same_whole_line_by_line_and_in_parts(tmp_path):
     options = RewriteOptions(tolerance=0.01, smoothing=SMOOTHING, mapping=DISPATCH)
     parts = list(smooth_parts(path, LocalCurvatureRule().predict, options, part_bytes=20))
     assert "".join(part.result.text for part in parts) == text
+
+
+def test_spline_evaluation_agrees_with_scipys_bspline():
+    """The reader evaluates NURBS with its own de Boor (reading G-code needs no SciPy): within 1e-12 of
+    scipy's BSpline on random clamped knot vectors, degrees 1-5, interior knots repeated up to the degree."""
+    from collections import Counter
+
+    from scipy.interpolate import BSpline
+
+    from toolpath.gcode.nurbs import evaluate_spline
+
+    rng = np.random.default_rng(3)
+    checked = 0
+    while checked < 300:
+        k = int(rng.integers(1, 6))
+        n = int(rng.integers(k + 1, 14))
+        inner = np.sort(rng.integers(1, 5, n - k - 1).astype(float) if checked % 2 else rng.random(n - k - 1) * 4.8)
+        if any(count > k for count in Counter(inner.tolist()).values()):
+            continue
+        knots = np.concatenate([np.zeros(k + 1), inner, np.full(k + 1, 5.0)])
+        coefficients = rng.normal(size=(n, 4)) * 10
+        t = np.concatenate([np.linspace(0.0, 5.0, 41), inner])
+        expected = BSpline(knots, coefficients, k, extrapolate=False)(t)
+        np.testing.assert_allclose(evaluate_spline(knots, coefficients, k, t), expected, rtol=0, atol=1e-12 * 60)
+        checked += 1

@@ -278,3 +278,25 @@ def test_every_corpus_program_smooths_within_tolerance(name, tmp_path):
     assert report["largest_deviation_mm"] <= 0.01
     after = (tmp_path / name).read_bytes().decode("utf-8", errors="surrogateescape")
     assert _whole_path_deviation(text, after) <= 0.01 + 1e-9
+
+
+@pytest.mark.parametrize(("options", "module", "extra"), [
+    (["--plot", "p.png"], "matplotlib", "plot"),
+    (["--report", "r.html"], "matplotlib", "plot"),
+    (["--classifier", "m.pt"], "torch", "models"),
+    (["--classifier", "m.onnx"], "onnxruntime", "int8"),
+])
+def test_an_option_whose_package_is_missing_names_the_extra_and_writes_nothing(tmp_path, monkeypatch, capsys,
+                                                                               options, module, extra):
+    import importlib.util
+
+    program = tmp_path / "in.nc"
+    program.write_text("G21 G90\nG1 X0 Y0 F100\n" + "".join(f"G1 X{i} Y{(i % 2) * 0.3}\n" for i in range(1, 80)))
+    for name in ("m.pt", "m.onnx"):
+        (tmp_path / name).write_bytes(b"model")
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == module else real(name, *a))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["in.nc", "-o", "out.nc", *options]) == 2
+    assert f"pip install 'toolpath-lab[{extra}]'" in capsys.readouterr().err
+    assert not (tmp_path / "out.nc").exists()

@@ -57,6 +57,23 @@ def _chord_gaps(curve, t: np.ndarray) -> np.ndarray:
     return np.linalg.norm(am - s[:, None] * ab, axis=1)
 
 
+def evaluate_spline(knots: np.ndarray, coefficients: np.ndarray, degree: int, t: np.ndarray) -> np.ndarray:
+    """The B-spline of ``degree`` with ``knots`` and ``coefficients`` (rows) at parameters ``t`` inside
+    ``[knots[degree], knots[n]]`` (n the number of coefficients), by de Boor's algorithm; the end
+    parameter belongs to the last non-empty knot span.  NumPy only: reading G-code needs no SciPy."""
+    n, k = len(coefficients), degree
+    span = np.clip(np.searchsorted(knots, t, side="right") - 1, k, n - 1)
+    last = max(i for i in range(k, n) if knots[i] < knots[i + 1])
+    span = np.where(t >= knots[n], last, np.minimum(span, last))
+    d = [coefficients[span - k + j] for j in range(k + 1)]  # each (len(t), dims)
+    for r in range(1, k + 1):
+        for j in range(k, r - 1, -1):
+            left, right = knots[span - k + j], knots[span + 1 + j - r]
+            alpha = ((t - left) / (right - left))[:, None]
+            d[j] = (1.0 - alpha) * d[j - 1] + alpha * d[j]
+    return d[k]
+
+
 def discretise(block: NurbsBlock, chord_tolerance: float) -> np.ndarray:
     """Points along the block's curve, after its first, every chord within ``chord_tolerance`` of the
     curve at its parameter midpoint (chords halved until they are).
@@ -66,8 +83,6 @@ def discretise(block: NurbsBlock, chord_tolerance: float) -> np.ndarray:
     ValueError
         For a block that does not define a NURBS curve, saying why.
     """
-    from scipy.interpolate import BSpline
-
     n, order = len(block.points), block.order
     knots = np.asarray(block.knots, float)
     if n < order:
@@ -83,10 +98,8 @@ def discretise(block: NurbsBlock, chord_tolerance: float) -> np.ndarray:
     if np.any(weights <= 0):
         raise ValueError("NURBS weights (R words) must be positive")
     homogeneous = np.hstack([np.asarray(block.points) * weights[:, None], weights[:, None]])
-    spline = BSpline(knots, homogeneous, order - 1, extrapolate=False)
-
     def curve(t: np.ndarray) -> np.ndarray:
-        h = spline(t)
+        h = evaluate_spline(knots, homogeneous, order - 1, t)
         return h[:, :3] / h[:, 3:]
 
     lo, hi = knots[order - 1], knots[n]

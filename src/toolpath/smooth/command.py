@@ -78,6 +78,33 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+#: what an option needs beyond the core install, and the extra that brings it
+EXTRAS = {"matplotlib": "plot", "torch": "models", "sklearn": "models", "onnxruntime": "int8", "openvino": "int8"}
+
+
+def _needs(args: argparse.Namespace) -> None:
+    """Stop before any work, naming the extra to install, when an option needs a package the core install
+    (NumPy and rich) does not bring: a plot or an HTML report (matplotlib), a trained classifier (torch,
+    scikit-learn; an .onnx file its runtime)."""
+    from importlib.util import find_spec
+
+    wanted = []
+    if args.plot is not None or (args.report is not None and args.report.suffix.lower() == ".html"):
+        wanted.append(("matplotlib", "--plot and an HTML --report draw with matplotlib"))
+    suffix = Path(args.classifier).suffix.lower()
+    if args.classifier == "rule":
+        pass
+    elif suffix == ".onnx":
+        wanted.append((args.runtime, f"an .onnx classifier runs in {args.runtime}"))
+    else:
+        wanted.append(("torch", "a trained classifier runs in torch"))
+        if suffix != ".pt2":
+            wanted.append(("sklearn", "a trained .pt classifier is a scikit-learn estimator"))
+    for module, why in wanted:
+        if find_spec(module) is None:
+            raise UsageError(f"{why}, which is not installed: pip install 'toolpath-lab[{EXTRAS[module]}]'")
+
+
 def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
     """Where the program goes, and where the input's backup goes (``--in-place`` only)."""
     if not args.input.exists():
@@ -188,6 +215,7 @@ def run(args: argparse.Namespace) -> dict:
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
     output, backup = _paths(args)
+    _needs(args)
     predict = classifier(args.classifier, args.runtime)
     options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
                              mapping=DISPATCH, seed=args.seed)

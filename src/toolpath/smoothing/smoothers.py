@@ -2,9 +2,25 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from scipy.ndimage import uniform_filter1d
-from scipy.special import comb
+
+
+def running_mean(values: np.ndarray, size: int) -> np.ndarray:
+    """Mean of each ``size`` consecutive rows along axis -2 (``len - size + 1`` of them).
+
+    The sum runs as scipy.ndimage's ``uniform_filter1d`` runs it: a first sum in order, then one value
+    added and one dropped per step, each sum divided by ``size``; so the numbers are scipy's bit for bit
+    (a test compares them) without scipy: ``toolpath smooth`` needs only NumPy.
+    """
+    if values.shape[-2] < size:
+        raise ValueError(f"{values.shape[-2]} rows are fewer than the {size} the mean needs")
+    first = np.zeros(values.shape[:-2] + values.shape[-1:])
+    for k in range(size):  # in order, as scipy's first sum
+        first = first + values[..., k, :]
+    steps = values[..., size:, :] - values[..., :-size, :]
+    return np.cumsum(np.concatenate([first[..., None, :], steps], axis=-2), axis=-2) / float(size)
 
 
 def mean_filter(window: np.ndarray, width: int = 3, passes: int = 1) -> np.ndarray:
@@ -24,7 +40,10 @@ def mean_filter(window: np.ndarray, width: int = 3, passes: int = 1) -> np.ndarr
         first, last = pts[..., :1, :], pts[..., -1:, :]
         padded = np.concatenate([2 * first - pts[..., half:0:-1, :], pts,
                                  2 * last - pts[..., -2:-half - 2:-1, :]], axis=-2)
-        smoothed = uniform_filter1d(padded, size=width, axis=-2, mode="nearest")[..., half:padded.shape[-2] - half, :]
+        # scipy's filter of the padded window, kept where the whole width lies inside it, opened its running
+        # sum on `half` copies of the first row ("nearest"); the same sum from there gives the same bits
+        edge = np.repeat(padded[..., :1, :], half, axis=-2)
+        smoothed = running_mean(np.concatenate([edge, padded], axis=-2), width)[..., half:, :]
         pts[..., 1:-1, :] = smoothed[..., 1:-1, :]
     return pts
 
@@ -40,7 +59,8 @@ def _chord_parameters(points: np.ndarray) -> np.ndarray:
 def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
     """Bernstein basis, shape (len(t), degree + 1)."""
     k = np.arange(degree + 1)
-    return comb(degree, k) * t[:, None] ** k * (1.0 - t[:, None]) ** (degree - k)
+    binomial = np.array([float(math.comb(degree, i)) for i in k])
+    return binomial * t[:, None] ** k * (1.0 - t[:, None]) ** (degree - k)
 
 
 def bezier_fit(window: np.ndarray, degree: int = 5) -> np.ndarray:
