@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import ast
+import importlib
 from pathlib import Path
 
 import pytest
@@ -51,9 +52,20 @@ def imported(nodes, importer: str, prefix: str = "toolpath") -> set[str]:
             if name.startswith(prefix):
                 found.add(name)
                 found |= {f"{name}.{a.name}" for a in node.names if module_file(f"{name}.{a.name}")}
+                # a package that loads its names on first use (PEP 562) maps each to its module
+                homes = lazy_names(name) if prefix == "toolpath" else {}
+                found |= {f"{name}.{homes[a.name]}" for a in node.names if a.name in homes}
         elif isinstance(node, ast.Import):
             found |= {a.name for a in node.names if a.name.startswith(prefix)}
     return {".".join(m.split(".")[:i]) for m in found for i in range(2, m.count(".") + 2)}
+
+
+def lazy_names(package: str) -> dict[str, str]:
+    """``{name: submodule}`` of a package that loads its names on first use (its ``_HOMES``), else {}."""
+    path = module_file(package)
+    if path is None or path.name != "__init__.py" or "_HOMES" not in path.read_text(encoding="utf-8"):
+        return {}
+    return dict(getattr(importlib.import_module(package), "_HOMES", {}))
 
 
 def tree(path: Path) -> ast.Module:
@@ -115,6 +127,13 @@ def test_a_stage_depends_on_its_module_and_every_package_its_code_runs(stage):
 def test_the_closure_sees_a_lazy_import_in_a_called_pipeline_function():
     # classify calls artifacts.load_classifier, whose body imports the networks: a real dependency
     assert {"models", "training"} <= stage_packages("classify")
+
+
+def test_the_closure_follows_a_name_a_package_loads_on_first_use():
+    # `from toolpath.labels import label_program` runs labels.windows, which reads G-code
+    assert "toolpath.labels.windows" in imported(ast.parse("from toolpath.labels import label_program").body,
+                                                 "toolpath.stages.x")
+    assert "gcode" in stage_packages("label")
 
 
 def test_no_stage_depends_on_the_product():

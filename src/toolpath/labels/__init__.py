@@ -7,8 +7,9 @@ windows file's schema uses) does not import the G-code reader.
 
 from importlib import import_module
 
-_HOMES = {"Split": "split", "split_by_program": "split", **{name: "windows" for name in (
-    "CATEGORY_NAMES", "TABLE1_BOUNDS", "Windows", "categorize", "concat", "cut_windows", "feed_runs", "label_program")}}
+_HOMES = {"Split": "split", "split_by_program": "split",
+          **{name: "categories" for name in ("CATEGORY_NAMES", "TABLE1_BOUNDS", "categorize")},
+          **{name: "windows" for name in ("Windows", "concat", "cut_windows", "feed_runs", "label_program")}}
 
 __all__ = sorted(_HOMES)
 

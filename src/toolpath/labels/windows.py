@@ -21,19 +21,10 @@ import numpy as np
 
 from toolpath.gcode.reader import Motion, Program
 from toolpath.geometry.curvature import drop_repeated, local_curvature
+from toolpath.labels.categories import TABLE1_BOUNDS, categorize
+
 
 #: Table 1 bounds: <= 1.9 smooth (1), < 3.5 slightly rough (2), < 7.6 rugged (3), else sharp corner (4).
-TABLE1_BOUNDS = (1.9, 3.5, 7.6)
-CATEGORY_NAMES = ("smooth", "slightly rough", "rugged", "sharp turning corner")
-
-
-def categorize(curvature: np.ndarray, bounds: tuple[float, float, float] = TABLE1_BOUNDS) -> np.ndarray:
-    """Table 1 category (1-4) of each LocalCurvature value."""
-    lc = np.asarray(curvature)
-    low, mid, high = bounds
-    return np.where(lc <= low, 1, np.where(lc < mid, 2, np.where(lc < high, 3, 4))).astype(np.int8)
-
-
 def feed_runs(program: Program, with_kinds: bool = False) -> list[tuple[np.ndarray, ...]]:
     """Unbroken runs of cutting motion: (xy (k, 2), source line of each point (k,)), and with
     ``with_kinds`` the :class:`Motion` that reaches each point (k,).

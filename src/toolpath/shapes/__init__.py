@@ -1,10 +1,19 @@
-"""Parametric parts (involute gear, pentagram boss, maple leaf) and CAM-like rough G01 toolpaths."""
+"""Parametric parts (involute gear, pentagram boss, maple leaf) and CAM-like rough G01 toolpaths, and the
+NURBS corner paper's case paths (:mod:`~toolpath.shapes.cases`).
 
-from toolpath.shapes.cam import Roughness, discretise, offset_passes, roughen
-from toolpath.shapes.outlines import gear, maple_leaf, pentagram
-from toolpath.shapes.synth import OUTLINES, draw, outline, synthesize
+The names below load on first use (PEP 562), so the case paths alone do not import the G-code writer.
+"""
 
-__all__ = [
-    "OUTLINES", "Roughness", "discretise", "draw", "gear", "maple_leaf", "offset_passes", "outline",
-    "pentagram", "roughen", "synthesize",
-]
+from importlib import import_module
+
+_HOMES = {**{name: "cam" for name in ("Roughness", "discretise", "offset_passes", "roughen")},
+          **{name: "outlines" for name in ("gear", "maple_leaf", "pentagram")},
+          **{name: "synth" for name in ("OUTLINES", "draw", "outline", "synthesize")}}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'toolpath.shapes' has no attribute {name!r}")
+    return getattr(import_module(f"toolpath.shapes.{_HOMES[name]}"), name)

@@ -137,7 +137,7 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
     """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
     if spec == "rule":  # Eq. 3 and Table 1 directly: the rule's estimator needs scikit-learn and torch to import
         from toolpath.geometry.curvature import local_curvature
-        from toolpath.labels.windows import categorize
+        from toolpath.labels.categories import categorize
 
         return lambda X: categorize(local_curvature(np.asarray(X, np.float64))).astype(np.int64)
     path = Path(spec)

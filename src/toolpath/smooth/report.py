@@ -10,7 +10,7 @@ from collections import Counter
 from dataclasses import asdict
 from pathlib import Path
 
-from toolpath.labels.windows import CATEGORY_NAMES
+from toolpath.labels.categories import CATEGORY_NAMES
 
 _TIME_NOTE = ("feed planner (seed 002) under the default machine limits, feed moves only; rapids are not timed; "
               "a run longer than a part (~8 MB of text) is planned in pieces, each from rest to rest")
