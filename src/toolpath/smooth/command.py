@@ -18,11 +18,9 @@ and ``feedrate``), repeated here so the command runs outside the repository; a t
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +56,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("input", type=Path, help="the G-code program to smooth")
     p.add_argument("-o", "--output", type=Path, help="where to write the smoothed program (not the input)")
     p.add_argument("--in-place", action="store_true", help="rewrite the input itself, keeping it first as IN.bak")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output (or IN.bak) file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output, report or plot file")
+    p.add_argument("--force-backup", action="store_true",
+                   help="with --in-place, replace an IN.bak that holds another program (never done otherwise)")
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="largest two-sided distance (mm) between the new path and the old (default 0.01)")
     p.add_argument("--classifier", default="rule",
@@ -105,8 +105,11 @@ def _needs(args: argparse.Namespace) -> None:
             raise UsageError(f"{why}, which is not installed: pip install 'toolpath-lab[{EXTRAS[module]}]'")
 
 
-def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
-    """Where the program goes, and where the input's backup goes (``--in-place`` only)."""
+def _paths(args: argparse.Namespace):
+    """The run's outputs (:func:`toolpath.smooth.outputs.plan`: checked against the input, each other and
+    what is there) after the input and the file kinds are checked."""
+    from toolpath.smooth.outputs import PathProblem, plan
+
     if not args.input.exists():
         raise UsageError(f"{args.input}: no such file")
     if not args.input.is_file():  # a folder, /dev/zero, a pipe: nothing with an end to read and back up
@@ -115,22 +118,10 @@ def _paths(args: argparse.Namespace) -> tuple[Path, Path | None]:
         raise UsageError(f"{args.report}: a report is .json or .html")
     if args.plot is not None and args.plot.suffix.lower() not in (".png", ".svg"):
         raise UsageError(f"{args.plot}: a plot is .png or .svg")
-    if args.in_place:
-        if args.output is not None:
-            raise UsageError("--in-place writes the input itself; leave out -o")
-        backup = args.input.with_name(args.input.name + ".bak")
-        if backup.exists() and not args.force:
-            raise UsageError(f"{backup}: the backup of an earlier --in-place run exists; move it or pass --force")
-        return args.input, backup
-    if args.output is None:
-        raise UsageError("say where to write: -o OUT (or --in-place)")
-    if args.output.resolve() == args.input.resolve():
-        raise UsageError(f"{args.output}: that is the input; use --in-place to rewrite it (a backup is kept)")
-    if args.output.exists() and not args.force:
-        raise UsageError(f"{args.output}: exists; pass --force to overwrite it")
-    if not args.output.parent.is_dir():
-        raise UsageError(f"{args.output.parent}: no such directory")
-    return args.output, None
+    try:
+        return plan(args.input, args.output, args.in_place, args.report, args.plot, args.force, args.force_backup)
+    except PathProblem as exc:
+        raise UsageError(str(exc)) from None
 
 
 def classifier(spec: str, runtime: str = "onnxruntime"):
@@ -208,20 +199,21 @@ def _progress(items: list) -> list:
 
 def run(args: argparse.Namespace) -> dict:
     from toolpath.gcode import GCodeError
+    from toolpath.smooth.outputs import atomic
     from toolpath.smooth.report import summary, write_plot, write_report
     from toolpath.smooth.rewrite import RewriteOptions
     from toolpath.smooth.stream import Combined, smooth_parts
 
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
-    output, backup = _paths(args)
+    outputs = _paths(args)
     _needs(args)
     predict = classifier(args.classifier, args.runtime)
     options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
                              mapping=DISPATCH, seed=args.seed)
     drawn = args.plot is not None or (args.report is not None and args.report.suffix.lower() == ".html")
     total = Combined(keep_paths=drawn)
-    with _atomic(output) as out:  # renamed into place only when every part is written
+    with atomic(outputs.program) as out:  # renamed into place last, when every other file is written
         try:
             for part in smooth_parts(args.input, predict, options, progress=_progress):
                 if args.arcs:
@@ -233,13 +225,15 @@ def run(args: argparse.Namespace) -> dict:
         except GCodeError as exc:
             raise InputError(str(exc)) from None
         report = summary(args, total.lines, total, (total.before, total.after, total.why), MACHINE)
-        if backup is not None:  # copied in blocks: a 10-million-line program never sits in memory
-            with _atomic(backup) as copy, args.input.open("rb") as original:
+        if outputs.backup is not None:  # copied in blocks: a 10-million-line program never sits in memory
+            with atomic(outputs.backup) as copy, args.input.open("rb") as original:
                 shutil.copyfileobj(original, copy, 1 << 20)
-    if args.report is not None:
-        write_report(args.report, report, total)
-    if args.plot is not None:
-        write_plot(args.plot, total)
+        if outputs.report is not None:
+            with atomic(outputs.report) as fh:
+                write_report(fh, outputs.report.suffix.lower(), report, total)
+        if outputs.plot is not None:
+            with atomic(outputs.plot) as fh:
+                write_plot(fh, outputs.plot.suffix.lower(), total)
     return report
 
 
@@ -258,29 +252,28 @@ def _weld(result, program, tolerance: float, start) -> None:
     result.changed_lines = sorted(set(result.changed_lines) | set(lines))
 
 
-@contextlib.contextmanager
-def _atomic(path: Path):
-    """A file beside ``path`` to write, renamed to ``path`` when the block ends without an error:
-    a reader never sees half a program, and a failure leaves ``path`` as it was."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(handle, "wb") as fh:
-            yield fh
-        # mkstemp makes the file private (0600); give it the mode a plain new file would have
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~umask)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+class Terminated(BaseException):
+    """SIGTERM, raised where the process stands so every temporary file is removed on the way out."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated
 
 
 def main(argv: list[str] | None = None) -> int:
+    import signal
+
     p = parser()
     args = p.parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         report = run(args)
+    except KeyboardInterrupt:  # SIGINT: the input untouched, no temporary file left (outputs.atomic)
+        print("toolpath smooth: interrupted, no file written", file=sys.stderr)
+        return 130
+    except Terminated:
+        print("toolpath smooth: terminated, no file written", file=sys.stderr)
+        return 143
     except UsageError as exc:
         p.print_usage(sys.stderr)
         print(f"toolpath smooth: error: {exc}", file=sys.stderr)
@@ -294,6 +287,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - a user gets one line, never a traceback; the output is not written
         print(f"toolpath smooth: internal error, no file written: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 3
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     w = report["windows"]
     print(f"{args.input} -> {report['output']}: {w['total']} windows ({w['smoothed']} smoothed), "
           f"{report['lines_changed']} lines changed, largest deviation {report['largest_deviation_mm']:.4f} mm "

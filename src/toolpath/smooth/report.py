@@ -8,7 +8,6 @@ import io
 import json
 from collections import Counter
 from dataclasses import asdict
-from pathlib import Path
 
 from toolpath.labels.categories import CATEGORY_NAMES
 
@@ -53,11 +52,9 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
     }
 
 
-def write_report(path: Path, report: dict, result) -> None:
-    if path.suffix.lower() == ".html":
-        path.write_text(_html(report, result), encoding="utf-8")
-    else:
-        path.write_text(_json(report), encoding="utf-8")
+def write_report(fh, suffix: str, report: dict, result) -> None:
+    """The report into the binary file ``fh``: HTML (the path drawn) for ``.html``, else JSON."""
+    fh.write((_html(report, result) if suffix == ".html" else _json(report)).encode("utf-8"))
 
 
 def _json(report: dict) -> str:
@@ -78,10 +75,10 @@ def _plain(value):
     raise TypeError(f"{type(value).__name__} in a smooth report")
 
 
-def write_plot(path: Path, result) -> None:
-    """The path before and after, rough windows marked, as PNG or SVG (by the suffix)."""
+def write_plot(fh, suffix: str, result) -> None:
+    """The path before and after, rough windows marked, into the binary file ``fh``: PNG or SVG (``suffix``)."""
     fig = _figure(result, result.windows)
-    fig.savefig(path, bbox_inches="tight", dpi=150)
+    fig.savefig(fh, format=suffix.lstrip("."), bbox_inches="tight", dpi=150)
     import matplotlib.pyplot as plt
 
     plt.close(fig)
