@@ -5,6 +5,7 @@ input intact and no temporary file behind."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -113,3 +114,21 @@ def test_a_signal_leaves_the_input_intact_and_no_temporary_file(tmp_path, signum
     assert process.returncode == code and err.strip().splitlines() == [f"toolpath smooth: {said}, no file written"]
     assert program.read_bytes() == original
     _only(tmp_path, "big.nc")
+
+
+def test_lines_changed_counts_the_lines_written_differently(work):
+    """At a tolerance below the written precision every moved number rounds back to its own text: the
+    output is the input, byte for byte, and the summary says no line changed."""
+    folder, program = work
+    done = _run(program, "-o", "out.nc", "--report", "r.json", "--tolerance", "0.00071", "--method", "mean",
+                cwd=folder)
+    assert done.returncode == 0, done.stderr
+    changed = sum(a != b for a, b in zip(program.read_text().splitlines(), (folder / "out.nc").read_text().splitlines(),
+                                         strict=True))
+    assert json.loads((folder / "r.json").read_text())["lines_changed"] == changed
+
+
+def test_a_seed_out_of_range_is_a_usage_error(work):
+    folder, program = work
+    done = _run(program, "-o", "out.nc", "--seed", "-5", cwd=folder)
+    assert done.returncode == 2 and "--seed -5" in done.stderr and not (folder / "out.nc").exists()

@@ -206,6 +206,8 @@ def run(args: argparse.Namespace) -> dict:
 
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
+    if not 0 <= args.seed < 2**32:
+        raise UsageError(f"--seed {args.seed}: must be a whole number from 0 to 4294967295")
     outputs = _paths(args)
     _needs(args)
     predict = classifier(args.classifier, args.runtime)

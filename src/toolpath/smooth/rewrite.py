@@ -253,7 +253,8 @@ def _units(jobs: list, configs: list[dict]) -> list[list[int]]:
 
 
 def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np.ndarray) -> dict[int, str]:
-    """The new text of each moved line: its X/Y numbers, in its own frame and units, at its precision."""
+    """The new text of each moved line: its X/Y numbers, in its own frame and units, at its precision; a
+    line whose numbers round back to its own text is left out (it is not changed, nor counted as changed)."""
     values = program_coordinates(program, lines, points)
     plain = program.plain[lines - 1] if program.plain is not None else np.zeros(len(lines), bool)
     numbers = fmt_many(values.ravel(), np.repeat(decimals, 2))
@@ -262,8 +263,9 @@ def _edits(program: Program, lines: np.ndarray, points: np.ndarray, decimals: np
     edits = {}
     for k, (line, raw, fast) in enumerate(zip(lines.tolist(), raws, plain.tolist(), strict=True)):
         x_text, y_text = numbers[2 * k], numbers[2 * k + 1]
-        edits[line] = substitute_plain_xy(raw, x_text, y_text) if fast else \
-            substitute_xy(raw, {"X": x_text, "Y": y_text})
+        new = substitute_plain_xy(raw, x_text, y_text) if fast else substitute_xy(raw, {"X": x_text, "Y": y_text})
+        if new != raw:
+            edits[line] = new
     return edits
 
 
