@@ -3,6 +3,7 @@ tolerance of the original path; every other line stays byte for byte; the next G
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -131,3 +132,39 @@ def test_corpus_programs_get_arcs_within_tolerance(name, tmp_path):
     text = source.read_bytes().decode("utf-8", errors="surrogateescape")
     after = (tmp_path / name).read_bytes().decode("utf-8", errors="surrogateescape")
     assert _deviation(text, after) <= 0.01 + 1e-9
+
+
+# --- what a controller reads: block delete, comments, N words (issue 42) ----------------------------
+
+def _weld_text(text: str, tolerance: float = 0.01) -> str:
+    program = read_text(text)
+    welded, records, _, _ = weld_arcs(program, program, tolerance)
+    assert records, "the test program must weld at least one arc"
+    return welded
+
+
+@pytest.mark.parametrize("switch", [False, True])
+def test_a_block_deleted_line_and_a_commented_line_are_kept_and_the_path_holds_at_both_switch_states(switch):
+    from toolpath.gcode import ReaderOptions
+
+    lines = polygon_program(60).splitlines()
+    lines[20] = "/" + lines[20]                    # runs only with the block-delete switch off
+    lines[40] = lines[40] + " (MSG, pass 3)"      # an operator message on a move
+    text = "\n".join(lines) + "\n"
+    welded = _weld_text(text)
+    assert lines[20] + "\n" in welded and lines[40] + "\n" in welded
+    options = ReaderOptions(block_delete=switch)
+    before = feed_runs(read_text(text, options=options))
+    after = feed_runs(read_text(welded, options=options))
+    assert max(float(hausdorff(p[0], q[0])) for p, q in zip(before, after, strict=True)) <= 0.01 + 1e-9
+
+
+def test_the_explicit_g1_after_an_arc_comes_after_the_lines_n_word():
+    pts = [(10 * math.cos(a), 10 * math.sin(a)) for a in np.linspace(0.0, math.pi, 81)]
+    lines = ["G21 G90 G17", f"G0 X{pts[0][0]:.3f} Y0", f"N1 G1 X{pts[0][0]:.3f} Y0 F300"]
+    lines += [f"N{k + 1} X{x:.3f} Y{y:.3f}" for k, (x, y) in enumerate(pts[1:], start=1)] + ["N99 M30"]
+    welded = _weld_text("\n".join(lines) + "\n")
+    for line in welded.splitlines():
+        words = line.split()
+        assert all(not w.upper().startswith("N") for w in words[1:]), f"an N word in mid-line: {line!r}"
+    assert any(re.fullmatch(r"N\d+ G1 X\S+ Y\S+", line) for line in welded.splitlines())

@@ -3,10 +3,11 @@ tolerance of the original path, as ArcWelder does for 3-D printers (fewer, longe
 plans an arc at constant curvature instead of a chain of tiny corners).
 
 Which lines.  A run of consecutive lines (nothing between them) that are each one plain G1 move in
-the XY plane (:func:`toolpath.gcode.edit.movable_lines`), in absolute mode, with an F word on the
-first line at most.  The arc replaces lines ``L(i+1)..L(q)`` (points ``i..q``): the first becomes
+the XY plane (:func:`toolpath.gcode.edit.movable_lines`), in absolute mode, with no block delete ``/``
+and no comment (a line an arc replaces is gone, with all it holds), with an F word on the first line
+at most.  The arc replaces lines ``L(i+1)..L(q)`` (points ``i..q``): the first becomes
 ``[N..] G2|G3 X Y I J [F..]`` with its line ending, the others are removed; the line after the arc,
-always a G1 of the run, gets an explicit ``G1`` if it relied on the modal one.  Programs that use
+always a G1 of the run, gets an explicit ``G1`` (after its N word) if it relied on the modal one.  Programs that use
 G90.1 (absolute arc centres) are left alone.
 
 The fit.  The arc passes through the run's first and last point exactly (its centre on their
@@ -34,12 +35,13 @@ from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.smooth.rewrite import line_decimals
+from toolpath.smooth.rewrite import line_decimals, switch_stable
 
 MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
 MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
+_LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
 
 
 @dataclass
@@ -108,16 +110,26 @@ def arc_bound(original: np.ndarray, arc: _Arc) -> float:
     return radial + sagitta
 
 
-def _chains(program: Program) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
+def _bare(raw: str) -> bool:
+    """No block delete and no comment: a line an arc may replace without dropping what a controller reads
+    (a ``/`` line runs or not by the switch; a comment may be a MSG or DEBUG the operator sees)."""
+    return not any(c in raw for c in "/(;")
+
+
+def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
     """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are consecutive plain G1
-    lines in absolute mode, an F word only on the first: (xy, lines, i, e)."""
-    movable = movable_lines(program)
+    lines in absolute mode, with no block delete or comment, an F word only on the first, and (``stable``)
+    where the tool stands after ``L(i)..L(e)`` the same with the block-delete switch on or off:
+    (xy, lines, i, e)."""
+    movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
+    stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
     out = []
     for xy, lines in feed_runs(program):
         ok = np.zeros(len(lines), bool)
         for k in range(1, len(lines)):
             line = int(lines[k])
-            ok[k] = bool(movable[line - 1]) and line == int(lines[k - 1]) + 1 and program.states[line].absolute
+            ok[k] = bool(movable[line - 1]) and line == int(lines[k - 1]) + 1 and program.states[line].absolute \
+                and bool(stable[line]) and bool(stable[int(lines[k - 1])])
         k = 1
         while k < len(lines):
             if not ok[k]:
@@ -153,7 +165,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     point_of_line = {int(line): k for k, line in enumerate(original.lines_of_points)}
     edits: dict[int, str] = {}
     records: list[ArcRecord] = []
-    for xy, lines, first, last in _chains(current):
+    for xy, lines, first, last in _chains(current, switch_stable(current, read_options, start)):
         original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
         i = first
         while i + MIN_SEGMENTS <= last - 1:  # the chain's last line stays a G1 after the arcs
@@ -210,7 +222,9 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
     after = end + 1  # a G1 of the chain: it must not inherit the arc's motion mode
     following = program.lines[after - 1]
     if not any(w.letter == "G" for w in tokenize(following.rstrip("\r\n"), program.source, after).words):
-        edits.setdefault(after, "G1 " + following.lstrip(" \t"))
+        # after a leading N word, where a controller expects it (LinuxCNC refuses an N in mid-line)
+        number = _LEADING_N.match(following)
+        edits.setdefault(after, following[:number.end()] + "G1 " + following[number.end():])
 
 
 def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,

@@ -17,7 +17,7 @@ measures the exact two-sided distance of every stretch before it returns.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -125,6 +125,19 @@ def _quiet_prefix(program: Program) -> np.ndarray:
     return np.cumsum(busy)
 
 
+def switch_stable(program: Program, read_options: ReaderOptions | None, start: Reading | None) -> np.ndarray:
+    """Per line (index = line, 0 the start): True where the line is no ``/`` line and the tool stands at
+    the same place after it with the block-delete switch off (``program``, as read) and on.  Without a
+    ``/`` line, every line."""
+    deleted = np.array([False] + [raw.lstrip(" \t").startswith("/") for raw in program.lines])
+    if not deleted.any():
+        return ~deleted
+    switched = replace(read_options or ReaderOptions(), block_delete=True)
+    reading = start.with_options(switched) if start is not None else Reading(program.source, switched)
+    other = reading.read("".join(program.lines))
+    return np.all(other.states.position == program.states.position, axis=1) & ~deleted
+
+
 def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) -> bool:
     line = int(lines[b])
     if not movable[line - 1] or (b + 1 < len(lines) and lines[b + 1] == line):
@@ -179,6 +192,8 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
     numbers can express.
     """
     movable, quiet = movable_lines(program), _quiet_prefix(program)
+    # a window a `/` line touches runs differently by the block-delete switch: kept whole
+    switched = np.cumsum(~switch_stable(program, read_options, start))
     runs = [(xy, lines) for xy, lines in feed_runs(program)]
     size = options.window
     records: list[WindowRecord] = []
@@ -199,6 +214,9 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             records.append(record)
             if record.method == UNTOUCHED:
                 record.status = "smooth already"
+                continue
+            if switched[int(lines[e])] - (switched[int(lines[s]) - 1] if lines[s] > 0 else 0) > 0:
+                record.status = "kept: block delete (/) in the window: the path differs with the switch on"
                 continue
             stretches, reason = _stretches(lines, movable, quiet, program, s, e)
             if not stretches:

@@ -1,0 +1,55 @@
+"""``toolpath smooth`` writes lines as the controller reads them (issue 42): a block-deleted line is never
+the source of a modal value written elsewhere; a window a ``/`` line touches is kept whole, with its
+reason; the whole path holds the tolerance with the block-delete switch off and on."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from test_smooth import _run
+from toolpath.gcode import ReaderOptions, read_text
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.labels.windows import feed_runs
+
+
+def rough_with_block_delete(n: int = 400, seed: int = 1) -> str:
+    """A rough straight cut; every 60th move block-deleted and the move after it relying on its modal Y."""
+    rng = np.random.default_rng(seed)
+    lines = ["G21 G90 G17", "G0 X0 Y0", "G1 F300"]
+    for k in range(1, n):
+        x, y = 0.1 * k, 0.04 * rng.standard_normal()
+        if k % 60 == 0:
+            lines.append(f"/G1 X{x:.3f} Y{y:.3f}")
+        elif k % 60 == 1 and k > 60:
+            lines.append(f"G1 X{x:.3f}")  # Y modal: the block-deleted line's with the switch off
+        else:
+            lines.append(f"G1 X{x:.3f} Y{y:.3f}")
+    return "\n".join(lines + ["M30"]) + "\n"
+
+
+def _path_distance(before: str, after: str, switch: bool) -> float:
+    options = ReaderOptions(block_delete=switch)
+    a, b = feed_runs(read_text(before, options=options)), feed_runs(read_text(after, options=options))
+    assert len(a) == len(b)
+    return max(float(hausdorff(p[0], q[0])) for p, q in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("arcs", [False, True])
+def test_block_deleted_lines_and_their_modal_followers_hold_at_both_switch_states(tmp_path, arcs):
+    program = tmp_path / "p.nc"
+    program.write_text(rough_with_block_delete())
+    done = _run(program, "-o", "out.nc", "--report", "r.json", "--method", "mean", *(["--arcs"] if arcs else []),
+                cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    before, after = program.read_text(), (tmp_path / "out.nc").read_text()
+    assert after != before  # windows away from the `/` lines are smoothed
+    for switch in (False, True):
+        assert _path_distance(before, after, switch) <= 0.01 + 1e-9, f"block delete {'on' if switch else 'off'}"
+    source = before.splitlines()
+    kept = [line for k, line in enumerate(source) if line.startswith("/") or source[k - 1].startswith("/")]
+    assert len(kept) == 12 and all(line in after.splitlines() for line in kept)  # never given the deleted Y
+    rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
+    assert any("block delete" in str(row) for row in rows)
