@@ -23,3 +23,15 @@ def test_each_sub_package_imports_on_its_own(name):
     assert done.returncode == 0, done.stderr[-2000:]
     if name in DOMAIN:
         assert done.stdout.strip() == "", f"toolpath.{name} imports {done.stdout.strip()}"
+
+
+def test_every_module_imports():
+    """Every module of the package imports (a name a package loads on first use hides a broken import from
+    the sub-package test above)."""
+    code = ("import importlib, pkgutil, toolpath\n"
+            "names = [m.name for m in pkgutil.walk_packages(toolpath.__path__, 'toolpath.') "
+            "if not m.name.endswith('__main__')]\n"
+            "for name in names:\n    importlib.import_module(name)\nprint(len(names))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert int(done.stdout) > 100

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from toolpath.labels.categories import CATEGORY_NAMES
 from toolpath.labels.split import Split
-from toolpath.labels.windows import CATEGORY_NAMES, Windows
+from toolpath.labels.windows import Windows
 
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 
