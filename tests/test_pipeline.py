@@ -179,9 +179,11 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     tested = {rev["name"]: rev["data"]["metrics"]["reports/metrics/train/gear/mlp.json"]["data"]["test"]
               for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
     assert set(names) <= set(tested)
-    for name in names:  # each experiment's own metrics file, as `dvc exp show` reads it
-        confusion = np.array(tested[name]["confusion"])
-        assert tested[name]["accuracy"] == pytest.approx(np.trace(confusion) / confusion.sum())
+    for name in names:  # each experiment's own metrics, as `dvc exp show` reads them: its accuracy is its recalls'
+        classes = tested[name]["per_class"].values()
+        right = sum((c.get("recall") or 0.0) * c.get("support", 0) for c in classes)
+        assert tested[name]["accuracy"] == pytest.approx(right / sum(c.get("support", 0) for c in classes))
+        assert tested[name]["windows"] == sum(c.get("support", 0) for c in classes)
     lrs = {rev["name"]: rev["data"]["params"]["params.yaml"]["data"]["train"]["common"]["lr"]
            for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
     assert sorted(lrs[n] for n in names) == [5e-4, 1e-3]
