@@ -53,3 +53,19 @@ def test_block_deleted_lines_and_their_modal_followers_hold_at_both_switch_state
     assert len(kept) == 12 and all(line in after.splitlines() for line in kept)  # never given the deleted Y
     rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
     assert any("block delete" in str(row) for row in rows)
+
+
+def test_g91_switched_on_inside_a_window_keeps_the_incremental_moves(tmp_path):
+    """The absolute mode is checked at every point a stretch would move, not only the window's first (a G91
+    inside a window had stopped the run with `internal check failed`)."""
+    rng = np.random.default_rng(2)
+    lines = ["G21 G90", "G0 X0 Y0", "G1 F300"]
+    lines += [f"G1 X{0.1 * k:.3f} Y{0.04 * rng.standard_normal():.3f}" for k in range(1, 75)]
+    lines += ["G91"] + [f"G1 X0.100 Y{0.04 * rng.standard_normal():.3f}" for _ in range(40)] + ["G90", "M30"]
+    program = tmp_path / "g91.nc"
+    program.write_text("\n".join(lines) + "\n")
+    done = _run(program, "-o", "out.nc", "--method", "mean", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    after = (tmp_path / "out.nc").read_text().splitlines()
+    assert after[after.index("G91"):] == lines[lines.index("G91"):]  # every incremental line byte for byte
+    assert after != lines and _path_distance("\n".join(lines) + "\n", "\n".join(after) + "\n", False) <= 0.01 + 1e-9

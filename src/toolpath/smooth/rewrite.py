@@ -94,7 +94,9 @@ def _stretches(lines: np.ndarray, movable: np.ndarray, quiet: np.ndarray, progra
     gap[first + 1:last + 1] = (lo < hi) & (quiet[hi - 1] - quiet[lo] == 0)
     free = np.zeros(last + 1, bool)
     inner = np.arange(first + 1, last)
-    free[inner] = movable[lines[inner].astype(np.int64) - 1] & gap[inner] & gap[inner + 1]
+    # a point moves only on a line in absolute mode: a window G91 switches on in the middle keeps its tail
+    absolute = program.states.absolute[lines[first:last + 1].astype(np.int64)]
+    free[inner] = movable[lines[inner].astype(np.int64) - 1] & gap[inner] & gap[inner + 1] & absolute[1:-1]
     out, k, reason = [], first, "no movable G1 lines (arcs, Z moves or words the rewrite does not own)"
     while k < last:
         if not free[k + 1]:
@@ -140,7 +142,7 @@ def switch_stable(program: Program, read_options: ReaderOptions | None, start: R
 
 def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) -> bool:
     line = int(lines[b])
-    if not movable[line - 1] or (b + 1 < len(lines) and lines[b + 1] == line):
+    if not movable[line - 1] or not program.states.absolute[line] or (b + 1 < len(lines) and lines[b + 1] == line):
         return False
     return set(axis_words(program.lines[line - 1].rstrip("\r\n"))) == {"X", "Y"}
 
