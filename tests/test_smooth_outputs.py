@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 
 from test_smooth import _run, noisy_program
@@ -132,3 +133,17 @@ def test_a_seed_out_of_range_is_a_usage_error(work):
     folder, program = work
     done = _run(program, "-o", "out.nc", "--seed", "-5", cwd=folder)
     assert done.returncode == 2 and "--seed -5" in done.stderr and not (folder / "out.nc").exists()
+
+
+@pytest.mark.parametrize(("predict", "said"), [
+    (lambda X: 1 / 0, "division by zero"),
+    (lambda X: np.zeros((len(X), 3)), "not two categories 1-4"),
+    (lambda X: np.zeros(len(X), int), "not two categories 1-4"),
+])
+def test_a_model_that_is_no_window_classifier_is_the_files_problem(predict, said):
+    from toolpath.smooth.command import InputError, checked
+
+    with pytest.raises(InputError, match=rf"m\.onnx: not a classifier of 50-point windows .*{said}"):
+        checked(predict, "m.onnx")
+    rule = checked(lambda X: np.ones(len(X), int), "rule")
+    assert rule(np.zeros((3, 50, 2))).tolist() == [1, 1, 1]

@@ -124,6 +124,22 @@ def _paths(args: argparse.Namespace):
         raise UsageError(str(exc)) from None
 
 
+def checked(predict, spec: str):
+    """``predict`` once it has classified a probe batch of two windows into two categories 1-4: a model
+    file that is valid but no window classifier (another input shape, another output) is the file's
+    problem, said in one line before any work."""
+    probe = np.cumsum(np.full((2, 50, 2), 0.1), axis=1)  # two straight windows, relative to their first point
+    try:
+        got = np.asarray(predict(probe))
+    except Exception as exc:  # noqa: BLE001 - whatever the runtime raises, the file does not fit
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
+        raise InputError(f"{spec}: not a classifier of 50-point windows ({reason})") from None
+    if got.shape != (2,) or not np.isin(got, (1, 2, 3, 4)).all():
+        raise InputError(f"{spec}: not a classifier of 50-point windows (it answered {got.tolist()!r} for two "
+                         "windows, not two categories 1-4)")
+    return predict
+
+
 def classifier(spec: str, runtime: str = "onnxruntime"):
     """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
     if spec == "rule":  # Eq. 3 and Table 1 directly: the rule's estimator needs scikit-learn and torch to import
@@ -210,7 +226,7 @@ def run(args: argparse.Namespace) -> dict:
         raise UsageError(f"--seed {args.seed}: must be a whole number from 0 to 4294967295")
     outputs = _paths(args)
     _needs(args)
-    predict = classifier(args.classifier, args.runtime)
+    predict = checked(classifier(args.classifier, args.runtime), args.classifier)
     options = RewriteOptions(tolerance=args.tolerance, smoothing=SMOOTHING, method=METHODS[args.method],
                              mapping=DISPATCH, seed=args.seed)
     drawn = args.plot is not None or (args.report is not None and args.report.suffix.lower() == ".html")
