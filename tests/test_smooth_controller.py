@@ -69,3 +69,46 @@ def test_g91_switched_on_inside_a_window_keeps_the_incremental_moves(tmp_path):
     after = (tmp_path / "out.nc").read_text().splitlines()
     assert after[after.index("G91"):] == lines[lines.index("G91"):]  # every incremental line byte for byte
     assert after != lines and _path_distance("\n".join(lines) + "\n", "\n".join(after) + "\n", False) <= 0.01 + 1e-9
+
+
+def system_parameter_program(seed: int = 3) -> list[str]:
+    rng = np.random.default_rng(seed)
+    lines = ["G21 G90", "G0 X0 Y0", "G1 F300"]
+    lines += [f"G1 X{0.1 * k:.3f} Y{0.04 * rng.standard_normal():.3f}" for k in range(1, 130)]
+    lines += ["#<x>=#5420 (where the controller stands)", "G1 X[#<x> + 0.1] Y0.02"]
+    lines += [f"G1 X{13 + 0.1 * k:.3f} Y{0.04 * rng.standard_normal():.3f}" for k in range(1, 220)] + ["M30"]
+    return lines
+
+
+def test_smoothing_stops_where_a_system_parameter_is_read(tmp_path):
+    """#5420 is the controller's current X, which the reader cannot know: from the window holding that
+    line on, the program is kept as it is, and the report says why."""
+    lines = system_parameter_program()
+    program = tmp_path / "p.nc"
+    program.write_text("\n".join(lines) + "\n")
+    done = _run(program, "-o", "out.nc", "--report", "r.json", "--method", "mean", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    after = (tmp_path / "out.nc").read_text().splitlines()
+    read_at = lines.index("#<x>=#5420 (where the controller stands)")
+    assert after[:100] != lines[:100] and after[read_at - 30:] == lines[read_at - 30:]
+    rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
+    kept = [r["status"].startswith("kept: #5420 at line 133") for r in rows]
+    assert kept[:2] == [False, False] and all(kept[2:]) and len(kept) > 3
+
+
+def test_the_stop_carries_over_to_every_later_part_of_a_long_program(tmp_path):
+    from toolpath.smooth.command import DISPATCH, SMOOTHING, classifier
+    from toolpath.smooth.rewrite import RewriteOptions
+    from toolpath.smooth.stream import smooth_parts
+
+    lines = system_parameter_program()
+    program = tmp_path / "p.nc"
+    program.write_text("\n".join(lines) + "\n")
+    options = RewriteOptions(tolerance=0.01, smoothing=SMOOTHING, method="mean_filter", mapping=DISPATCH, seed=0)
+    parts = list(smooth_parts(program, classifier("rule"), options, part_bytes=1500))
+    assert len(parts) > 3
+    statuses = [w.status for part in parts for w in part.result.windows]
+    first_kept = next(k for k, s in enumerate(statuses) if s.startswith("kept: #5420"))
+    assert all(s.startswith("kept: #5420") for s in statuses[first_kept:]) and first_kept == 2
+    assert "".join(part.result.text for part in parts).splitlines()[lines.index("G1 X[#<x> + 0.1] Y0.02"):] == \
+        lines[lines.index("G1 X[#<x> + 0.1] Y0.02"):]

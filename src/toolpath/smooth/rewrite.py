@@ -16,6 +16,7 @@ measures the exact two-sided distance of every stretch before it returns.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -140,6 +141,23 @@ def switch_stable(program: Program, read_options: ReaderOptions | None, start: R
     return np.all(other.states.position == program.states.position, axis=1) & ~deleted
 
 
+#: a read of a system parameter: LinuxCNC's #5000-#5999 hold what the controller knows (the current position
+#: #5420-#5428, G28 / G30 / G92 and work offsets, probe results, the tool); the reader does not know them
+_SYSTEM_PARAMETER = re.compile(r"#\s*0*5\d{3}(?!\d)")
+_COMMENT = re.compile(r"\([^)]*\)?|;.*")
+
+
+def controller_state_read(program: Program) -> tuple[int, str] | None:
+    """The first line (and the word) that reads a parameter only the controller knows, or None: from there
+    on the reader's path is not the controller's, so nothing there or after it is smoothed."""
+    for number, raw in enumerate(program.lines, start=1):
+        if "#" not in raw:
+            continue
+        if found := _SYSTEM_PARAMETER.search(_COMMENT.sub(" ", raw)):
+            return number, found.group(0).replace(" ", "")
+    return None
+
+
 def _closes(program: Program, movable: np.ndarray, lines: np.ndarray, b: int) -> bool:
     line = int(lines[b])
     if not movable[line - 1] or not program.states.absolute[line] or (b + 1 < len(lines) and lines[b + 1] == line):
@@ -183,11 +201,13 @@ def _method_for(category: int, options: RewriteOptions) -> str:
 
 def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
                    read_options: ReaderOptions | None = None,
-                   progress: Callable[[list], list] = lambda items: items, start: Reading | None = None) -> Rewrite:
+                   progress: Callable[[list], list] = lambda items: items, start: Reading | None = None,
+                   stop: tuple[int, str] | None = None) -> Rewrite:
     """Classify every window of ``program``'s feed runs and smooth the rough ones within the tolerance.
 
     ``start``: for a part of a program (:mod:`toolpath.smooth.stream`), the reading its output is
-    re-read from (the modal state and parameters where the part begins).
+    re-read from (the modal state and parameters where the part begins).  ``stop``: (line, word) from
+    which no window is smoothed (:func:`controller_state_read`; line 0: the whole part).
 
     ``classify`` maps windows (N, window, 2) in mm, relative to their first point, to Table 1
     categories 1-4.  Raises :class:`GCodeError` when the tolerance is finer than the program's
@@ -216,6 +236,10 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             records.append(record)
             if record.method == UNTOUCHED:
                 record.status = "smooth already"
+                continue
+            if stop is not None and int(lines[e]) >= stop[0]:
+                where = f"line {stop[0]}" if stop[0] else "an earlier part"
+                record.status = f"kept: {stop[1]} at {where} reads what only the controller knows: smoothing stops"
                 continue
             if switched[int(lines[e])] - (switched[int(lines[s]) - 1] if lines[s] > 0 else 0) > 0:
                 record.status = "kept: block delete (/) in the window: the path differs with the switch on"

@@ -29,7 +29,7 @@ from toolpath.gcode.program import Motion, Program
 from toolpath.gcode.reader import ReaderOptions
 from toolpath.gcode.reading import Reading, text_parts
 from toolpath.labels.windows import feed_runs
-from toolpath.smooth.rewrite import Rewrite, RewriteOptions, smooth_program
+from toolpath.smooth.rewrite import Rewrite, RewriteOptions, controller_state_read, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
 # lines whose effect a resumed reading could not replay from the modal state of their row
@@ -92,6 +92,7 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
     reading = Reading(str(path), read_options)
     start = reading.snapshot()
     waiting: Program | None = None
+    stop: tuple[int, str] | None = None  # from where a system parameter is read: nothing smoothed
     parts = text_parts(path, part_bytes)
     text = next(parts, None)
     while text is not None:
@@ -107,7 +108,11 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
         head, waiting = program.split(count)
         if count == 0:  # the whole part is one unfinished window: read on
             continue
-        result = smooth_program(head, classify, options, read_options, progress, start=start)
+        if stop is None and (found := controller_state_read(head)) is not None:
+            stop = found
+        result = smooth_program(head, classify, options, read_options, progress, start=start, stop=stop)
+        if stop is not None:
+            stop = (0, stop[1])  # the later parts: kept whole
         yield Part(head, result, start, restarts)
         start = reading.resume_at(waiting.states, 0, waiting.first_line - 1)
 
