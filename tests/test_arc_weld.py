@@ -126,7 +126,8 @@ def test_corpus_programs_get_arcs_within_tolerance(name, tmp_path):
     from toolpath.smooth.command import main
 
     source = CORPUS / name
-    assert main([str(source), "-o", str(tmp_path / name), "--arcs", "--report", str(tmp_path / "r.json")]) == 0
+    assert main([str(source), "-o", str(tmp_path / name), "--arcs", "--units", "mm",
+                 "--report", str(tmp_path / "r.json")]) == 0
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["arcs"]["fitted"] > 10 and report["largest_deviation_mm"] <= 0.01
     text = source.read_bytes().decode("utf-8", errors="surrogateescape")

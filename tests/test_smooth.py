@@ -272,7 +272,7 @@ def test_cli_names_file_and_line_of_unsupported_input_and_of_a_corrupt_model(tmp
 def test_every_corpus_program_smooths_within_tolerance(name, tmp_path):
     source = CORPUS / name
     text = source.read_bytes().decode("utf-8", errors="surrogateescape")
-    done = _run(source, "-o", tmp_path / name, "--report", tmp_path / "r.json", "--method", "mean")
+    done = _run(source, "-o", tmp_path / name, "--report", tmp_path / "r.json", "--method", "mean", "--units", "mm")
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["largest_deviation_mm"] <= 0.01

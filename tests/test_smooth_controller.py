@@ -112,3 +112,23 @@ def test_the_stop_carries_over_to_every_later_part_of_a_long_program(tmp_path):
     assert all(s.startswith("kept: #5420") for s in statuses[first_kept:]) and first_kept == 2
     assert "".join(part.result.text for part in parts).splitlines()[lines.index("G1 X[#<x> + 0.1] Y0.02"):] == \
         lines[lines.index("G1 X[#<x> + 0.1] Y0.02"):]
+
+
+def test_a_program_without_units_is_smoothed_only_in_the_units_it_is_given(tmp_path):
+    """No G20 / G21: refused (exit 2, nothing written) until --units says which; inch reads it as a G20
+    program does, and the report records what was assumed."""
+    body = [line for line in rough_with_block_delete(200).splitlines() if not line.startswith(("/", "G21"))]
+    program = tmp_path / "p.nc"
+    program.write_text("\n".join(body) + "\n")
+    done = _run(program, "-o", "out.nc", "--method", "mean", cwd=tmp_path)
+    assert done.returncode == 2 and "--units mm or --units inch" in done.stderr
+    assert not (tmp_path / "out.nc").exists()
+    assert _run(program, "-o", "in.nc", "--units", "inch", "--report", "r.json", "--method", "mean",
+                cwd=tmp_path).returncode == 0
+    assert json.loads((tmp_path / "r.json").read_text())["units"] == {"set_by_program": None, "assumed": "inch"}
+    stated = tmp_path / "g20.nc"
+    stated.write_text("G20\n" + "\n".join(body) + "\n")
+    assert _run(stated, "-o", "g20_out.nc", "--method", "mean", cwd=tmp_path).returncode == 0
+    assert (tmp_path / "g20_out.nc").read_text() == "G20\n" + (tmp_path / "in.nc").read_text()
+    assert _run(program, "-o", "mm.nc", "--units", "mm", "--method", "mean", cwd=tmp_path).returncode == 0
+    assert (tmp_path / "mm.nc").read_text() != (tmp_path / "in.nc").read_text()  # 25.4x the tolerance apart

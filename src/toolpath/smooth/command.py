@@ -72,6 +72,9 @@ def parser() -> argparse.ArgumentParser:
                    help="dispatch (category 2 mean, 3 Bezier, 4 NACOA: Sec. 5.3) or one method for all rough windows")
     p.add_argument("--report", type=Path, help="write a report: REPORT.json, or REPORT.html with the path drawn")
     p.add_argument("--plot", type=Path, help="draw the path before and after, rough windows marked: PLOT.png or .svg")
+    p.add_argument("--units", choices=("mm", "inch"),
+                   help="the units the control runs a program in that sets none (no G20 / G21): such a program is "
+                        "refused without it (a control left in the other units would run every move 25.4x off)")
     p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
     p.add_argument("--arcs", action="store_true",
                    help="also replace runs of G1 lines by one G2/G3 where an arc lies within the tolerance")
@@ -233,7 +236,9 @@ def run(args: argparse.Namespace) -> dict:
     total = Combined(keep_paths=drawn)
     with atomic(outputs.program) as out:  # renamed into place last, when every other file is written
         try:
-            for part in smooth_parts(args.input, predict, options, progress=_progress):
+            units = None
+            for part in smooth_parts(args.input, predict, options, progress=_progress, units=args.units):
+                units = part.program.units
                 if args.arcs:
                     _weld(part.result, part.program, args.tolerance, part.start)
                 out.write(part.result.text.encode("utf-8", errors="surrogateescape"))  # undecodable bytes kept
@@ -242,7 +247,12 @@ def run(args: argparse.Namespace) -> dict:
                           if args.report is not None else (None, None, "no --report asked for"))
         except GCodeError as exc:
             raise InputError(str(exc)) from None
+        if units is not None and "no unit word" in units and args.units is None:
+            raise UsageError(f"{args.input}: the program sets no units (no G20 / G21): pass --units mm or "
+                             "--units inch, the units its control runs it in")
         report = summary(args, total.lines, total, (total.before, total.after, total.why), MACHINE)
+        unset = units is not None and "no unit word" in units
+        report["units"] = {"set_by_program": None if unset else units, "assumed": args.units if unset else None}
         if outputs.backup is not None:  # copied in blocks: a 10-million-line program never sits in memory
             with atomic(outputs.backup) as copy, args.input.open("rb") as original:
                 shutil.copyfileobj(original, copy, 1 << 20)

@@ -79,8 +79,9 @@ def _cut(program: Program, window: int) -> tuple[int, bool]:
 
 def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], options: RewriteOptions,
                  read_options: ReaderOptions | None = None, part_bytes: int = PART_BYTES,
-                 progress: Callable[[list], list] = lambda items: items) -> Iterator[Part]:
-    """Every part of the program at ``path``, smoothed (:func:`toolpath.smooth.rewrite.smooth_program`).
+                 progress: Callable[[list], list] = lambda items: items, units: str | None = None) -> Iterator[Part]:
+    """Every part of the program at ``path``, smoothed (:func:`toolpath.smooth.rewrite.smooth_program`);
+    ``units`` ("mm" or "inch"): the units the program runs in until it sets its own (G20 / G21).
 
     Raises
     ------
@@ -90,6 +91,7 @@ def smooth_parts(path: Path, classify: Callable[[np.ndarray], np.ndarray], optio
         When the file cannot be read.
     """
     reading = Reading(str(path), read_options)
+    reading.interp.inch = units == "inch"  # the control's units until the program says G20 / G21
     start = reading.snapshot()
     waiting: Program | None = None
     stop: tuple[int, str] | None = None  # from where a system parameter is read: nothing smoothed
