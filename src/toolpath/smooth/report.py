@@ -8,6 +8,9 @@ import io
 import json
 from collections import Counter
 from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
 
 from toolpath.labels.categories import CATEGORY_NAMES
 
@@ -95,6 +98,23 @@ def _figure_svg(result, windows) -> str:
     return out.getvalue()
 
 
+#: the colour of each rough category's windows, in the drawing and its legend
+_CATEGORY_COLOURS = {2: "tab:orange", 3: "tab:red", 4: "purple"}
+
+
+def _largest_change(result) -> tuple[np.ndarray, float] | None:
+    """Where a point moved most (its position before) and by how much (mm); None when nothing moved."""
+    best = None
+    for before, after in zip(result.runs_before, result.runs_after, strict=True):
+        if len(before) != len(after) or not len(before):
+            continue
+        moved = np.hypot(*(after - before).T)
+        k = int(moved.argmax())
+        if moved[k] > 0 and (best is None or moved[k] > best[1]):
+            best = (before[k], float(moved[k]))
+    return best
+
+
 def _figure(result, windows):
     import matplotlib
 
@@ -106,19 +126,34 @@ def _figure(result, windows):
         ax.plot(xy[:, 0], xy[:, 1], color="0.6", lw=1.6, label="before" if k == 0 else None)
     for k, xy in enumerate(result.runs_after):
         ax.plot(xy[:, 0], xy[:, 1], color="tab:blue", lw=0.7, label="after" if k == 0 else None)
-    size, seen = 50, Counter()
+    size, seen, drawn = 50, Counter(), set()
     for w in windows:
         index = seen[w.run]
         seen[w.run] += 1
         if w.category >= 2:
             xy = result.runs_before[w.run][index * size:(index + 1) * size]
-            ax.plot(xy[:, 0], xy[:, 1], color=("tab:orange", "tab:red", "purple")[w.category - 2], lw=2.5,
-                    alpha=0.35)
+            name = f"rough window, category {w.category} ({CATEGORY_NAMES[w.category - 1]})"
+            ax.plot(xy[:, 0], xy[:, 1], color=_CATEGORY_COLOURS[w.category], lw=2.5, alpha=0.35,
+                    label=name if w.category not in drawn else None)
+            drawn.add(w.category)
+    if (change := _largest_change(result)) is not None:  # at the tolerance the paths lie on each other: zoom in
+        (cx, cy), moved = change
+        half = 12 * moved
+        inset = ax.inset_axes([0.64, 0.04, 0.34, 0.34])
+        for runs, colour, width in ((result.runs_before, "0.45", 1.6), (result.runs_after, "tab:blue", 1.0)):
+            for xy in runs:
+                inset.plot(xy[:, 0], xy[:, 1], color=colour, lw=width, marker=".", ms=4)
+        inset.set_xlim(cx - half, cx + half)
+        inset.set_ylim(cy - half, cy + half)
+        inset.set_aspect("equal")
+        inset.tick_params(labelsize=6)
+        inset.set_title(f"the largest change, {1000 * moved:.1f} µm, at true scale", fontsize=7)
+        ax.indicate_inset_zoom(inset, edgecolor="0.3")
     ax.set_aspect("equal")
     ax.set_xlabel("X (mm)")
     ax.set_ylabel("Y (mm)")
-    ax.legend(loc="best")
-    ax.set_title("feed moves before (grey) and after (blue); rough windows: orange 2, red 3, purple 4")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title("feed moves before and after smoothing")
     return fig
 
 
@@ -131,6 +166,20 @@ def _cell(value) -> str:
     return str(value)
 
 
+def _rounded(key: str, value):
+    """A figure as it means something: millimetres to the micron, per cents to a tenth, seconds to the
+    millisecond, other fractions to four significant digits."""
+    if not isinstance(value, float):
+        return value
+    if key.endswith("_mm") or "(mm)" in key:
+        return f"{value:.3f}"
+    if "pct" in key or "(%)" in key:
+        return f"{value:.1f}"
+    if "(s)" in key or key.endswith("_s"):
+        return f"{value:.3f}"
+    return f"{value:.4g}"
+
+
 def _html(report: dict, result) -> str:
     e = html.escape
     head = {k: v for k, v in report.items() if k not in ("window_rows", "windows", "machining_time_s", "arcs")}
@@ -139,15 +188,17 @@ def _html(report: dict, result) -> str:
     t = report["machining_time_s"]
     rows = "".join(
         f"<tr><td>{w['first_line']}-{w['last_line']}</td><td>{w['category']}</td><td>{e(w['method'])}</td>"
-        f"<td>{w['curvature_before']:.3f}</td><td>{w['curvature_after']:.3f}</td><td>{w['deviation_mm']:.4f}</td>"
+        f"<td>{w['curvature_before']:.3f}</td><td>{w['curvature_after']:.3f}</td><td>{w['deviation_mm']:.3f}</td>"
         f"<td>{w['lines_changed']}</td><td>{e(w['status'])}</td></tr>" for w in report["window_rows"])
-    facts = "".join(f"<tr><th>{e(str(k))}</th><td>{e(_cell(v))}</td></tr>" for k, v in
+    facts = "".join(f"<tr><th>{e(str(k))}</th><td>{e(_cell(_rounded(str(k), v)))}</td></tr>" for k, v in
                     {**head, **report["windows"], "time before (s)": t["before"], "time after (s)": t["after"],
                      "time saved (%)": t["saved_pct"]}.items())
-    return (f"<!doctype html><html><head><meta charset='utf-8'><title>toolpath smooth: {e(report['input'])}</title>"
+    name = Path(report["input"]).name
+    return (f"<!doctype html><html><head><meta charset='utf-8'><title>toolpath smooth: {e(name)}</title>"
             "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
             "padding:2px 6px;text-align:left}</style></head><body>"
-            f"<h1>toolpath smooth: {e(report['input'])}</h1><table>{facts}</table>"
+            f"<h1>toolpath smooth: {e(name)}</h1><p>{e(report['input'])} -> {e(report['output'])}</p>"
+            f"<table>{facts}</table>"
             f"{_figure_svg(result, result.windows)}<h2>Windows</h2><table><tr><th>lines</th><th>category</th>"
             "<th>method</th><th>LocalCurvature before</th><th>after</th><th>two-sided deviation (mm)</th>"
             f"<th>lines changed</th><th>status</th></tr>{rows}</table></body></html>\n")
