@@ -162,7 +162,9 @@ class Report:
         require([path], "classify")
         data = read_json(path)
         drawn = {int(c): np.array(w) for c, w in data["windows"].items()}
-        predictions = {m: {int(c): int(p) for c, p in by.items()} for m, by in data["predictions"].items()}
+        # in the configuration's model order (the file's keys are sorted)
+        order = [m for m in self.cfg.train.models if m in data["predictions"]]
+        predictions = {m: {int(c): int(p) for c, p in data["predictions"][m].items()} for m in order}
         table = Table(f"Table 5: one seeded random test window per category ({data['shape']}), each model's "
                       "prediction", ["model", *(f"category {c}" for c in drawn), "correct (paper)"])
         for model, predicted in predictions.items():
