@@ -152,7 +152,7 @@ def test_the_product_and_the_stages_are_leaves():
         targets = imported(ast.walk(tree(path)), importer)
         if not name.startswith("toolpath.smooth") and name != "toolpath.cli":
             assert not any(t == "toolpath.smooth" or t.startswith("toolpath.smooth.") for t in targets), name
-        if not name.startswith(("toolpath.stages", "toolpath.bench")):
+        if not name.startswith("toolpath.stages"):
             assert not any(t.startswith("toolpath.stages") for t in targets), name
 
 
