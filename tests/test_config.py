@@ -128,12 +128,12 @@ def test_seed_for_is_stable_and_distinct():
 
 
 def test_every_committed_bound_row_is_within_the_tolerance_both_ways():
-    """Every smoothed window of the committed default-profile run, bound mode, every method and encoding:
-    its exact two-sided distance from the original is at most the tolerance."""
+    """Every smoothed window of the committed default-profile run, bounded modes (tube and discs), every
+    method and encoding: its exact two-sided distance from the original is at most the tolerance."""
     tolerance = OmegaConf.load(REPO / "params.yaml").optimize.tolerance
     for shape in OmegaConf.load(REPO / "params.yaml").shapes:
         with (REPO / "reports" / "metrics" / "optimize" / f"{shape}.csv").open() as fh:
-            bound = [r for r in csv.DictReader(fh) if r["mode"] == "bound"]
+            bound = [r for r in csv.DictReader(fh) if r["mode"] in ("bound", "tube")]
         assert bound, shape
         for row in bound:
             assert float(row["hausdorff_mm"]) <= tolerance + 1e-9, (shape, row["window"], row["method"])

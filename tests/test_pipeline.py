@@ -66,8 +66,11 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "../shared/gcode-corpus not found" in real["skipped"]
     for shape in ("gear", "pentagram", "maple_leaf"):
         with (work / f"reports/metrics/optimize/{shape}.csv").open() as fh:
-            bound = [r for r in csv.DictReader(fh) if r["mode"] == "bound"]
+            bound = [r for r in csv.DictReader(fh) if r["mode"] in ("bound", "tube")]
         assert bound and max(float(r["hausdorff_mm"]) for r in bound) <= 0.05 + 1e-9
+        summary = json.loads((work / f"reports/metrics/optimize/{shape}.json").read_text())
+        assert summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["windows"] > 0
+        assert summary["convergence_study"]["chosen"] in (3, 6)  # the smoke profile's candidates
     for shape in ("gear", "pentagram", "maple_leaf"):
         quantized = json.loads((work / f"reports/metrics/qat/{shape}.json").read_text())
         for model in ("mlp",):  # the smoke profile's QAT models

@@ -11,7 +11,7 @@ import json
 import pytest
 
 from conftest import REPO
-from toolpath.reports import corner_report, sequencing, smoothing, speed, tables
+from toolpath.reports import corner_report, sequencing, smoothing, smoothing_tables, speed, tables
 from toolpath.training.metrics import DEGENERATE
 
 METRICS = REPO / "reports" / "metrics"
@@ -79,9 +79,12 @@ def optimize_metrics() -> tuple[dict, dict]:
 def test_table6_pools_each_optimisers_reduction_over_the_shapes():
     metrics, timing = optimize_metrics()
     for shape, value in zip(SHAPES, (10.0, 20.0, 33.0), strict=True):
-        metrics[shape]["head_to_head"]["bound"]["nacoa"]["mean_reduction_pct"] = value
-    nacoa = row_of(smoothing.table6(metrics, timing), "NACOA")
-    assert nacoa[7] == "21.0"  # the mean over the three shapes, bound mode
+        metrics[shape]["head_to_head"]["tube"]["nacoa_matched"]["mean_reduction_pct"] = value
+    table = smoothing_tables.table6(metrics, timing)
+    nacoa = row_of(table, "NACOA (matched budget)")
+    assert nacoa[table.headers.index("reduction, bound (tube) (%)")] == "21.0"  # the mean over the three shapes
+    assert nacoa[table.headers.index("Fitness vectorised")] == "yes"
+    assert row_of(table, "PSO")[table.headers.index("Fitness vectorised")].startswith("no")
 
 
 def test_reduction_table_shows_ours_beside_the_paper_and_flags_a_ranking_unlike_the_papers():
@@ -90,12 +93,23 @@ def test_reduction_table_shows_ours_beside_the_paper_and_flags_a_ranking_unlike_
     stats["nacoa"]["mean_reduction_pct"], stats["bezier"]["mean_reduction_pct"] = 12.34, 50.0
     stats["mean_filter"]["mean_reduction_pct"] = 40.0
     table = smoothing.reduction_table(metrics)
-    gear_bound = [r for r in table.rows if r[0] == "gear" and r[1] == "bound"][0]
+    gear_bound = [r for r in table.rows if r[0] == "gear" and r[1] == "bound (discs, stricter)"][0]
     assert "12.3 (78, -65.7)" in gear_bound
-    assert any(n.startswith("gear, bound mode: Bezier > mean filter > NACOA (not the paper's") for n in table.notes)
+    start = "gear, bound (discs, stricter), all categories, no interval: Bezier > mean filter > NACOA (not the paper's"
+    assert any(n.startswith(start) for n in table.notes)
     stats["nacoa"]["mean_reduction_pct"] = 90.0
-    assert any(n.startswith("gear, bound mode:") and "as in the paper" in n
+    assert any(n.startswith("gear, bound (discs, stricter)") and "as in the paper" in n
                for n in smoothing.reduction_table(metrics).notes)
+
+
+def test_the_paper_metric_table_gives_intervals_and_the_sentence_they_allow():
+    metrics, _ = optimize_metrics()
+    pooled = metrics["gear"]["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]
+    pooled["mean_reduction_pct"], pooled["mean_reduction_ci"] = 70.0, [65.0, 75.0]
+    table = smoothing_tables.paper_metric_table(metrics)
+    nacoa = [r for r in table.rows if r[:3] == ["gear", "bound (tube)", "NACOA"]][0]
+    assert nacoa[4] == "70.0 [65.0, 75.0]" and nacoa[5] == "below the paper's 78 %"
+    assert any(r[2].startswith("Sec. 5.3 dispatch") for r in table.rows)
 
 
 # ---- corners and feed -----------------------------------------------------------------------------------
@@ -150,7 +164,7 @@ def test_sequencing_tables_show_travel_and_bold_only_a_collision_free_best():
     assert sequencing.expansion_table(metrics, 68).rows == [["2", "1234", "1"]]
 
 
-@pytest.mark.parametrize("builder", [tables.table3, smoothing.reduction_table])
+@pytest.mark.parametrize("builder", [tables.table3, smoothing.reduction_table, smoothing_tables.paper_metric_table])
 def test_a_table_renders_markdown_and_latex_with_every_row(builder):
     if builder is tables.table3:
         table = builder("gear", {m: load(f"metrics/train/gear/{m}.json")["replicates"] for m in ("mcrl", "rule")})

@@ -15,7 +15,7 @@ from omegaconf import OmegaConf
 from toolpath.pipeline import artifacts
 from toolpath.pipeline.artifacts import Layout, load_arrays, load_smoothed, load_windows
 from toolpath.pipeline.seeds import seed_for
-from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, summary
+from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, smoothing_tables, summary
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, table4
@@ -196,9 +196,11 @@ class Report:
         data = self.optimize_inputs()
         metrics = {s: d["metrics"] for s, d in data.items()}
         self.summaries["table6"] = summary.table6_summary(metrics)
-        table6 = smoothing.table6(metrics, {s: d["timing"] for s, d in data.items()})
-        return (self.table(table6, "table6_optimisers") + "\n"
-                + self.table(smoothing.reduction_table(metrics), "table6_reduction"))
+        table6 = smoothing_tables.table6(metrics, {s: d["timing"] for s, d in data.items()})
+        return (self.table(smoothing_tables.paper_metric_table(metrics), "table6_reduction") + "\n"
+                + self.table(table6, "table6_optimisers") + "\n"
+                + self.table(smoothing_tables.study_table(metrics), "table6_nacoa_study") + "\n"
+                + self.table(smoothing.reduction_table(metrics), "table6_reduction_all_categories"))
 
     def smoothing_figures(self) -> str:
         data = self.optimize_inputs()

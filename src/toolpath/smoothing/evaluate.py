@@ -21,7 +21,7 @@ COMPLEXITY = {
 ROW_FIELDS = ("window", "category", "baseline_window", "mode", "method", "encoding", "local_curvature_before",
               "local_curvature_after", "reduction_pct", "smoothness_before", "smoothness_after",
               "fitness_before", "fitness_after", "hausdorff_mm", "one_sided_mm", "arc_length_change_pct",
-              "evaluations", "seconds")
+              "evaluations", "no_move", "seconds")
 
 
 def reduction_pct(before: float, after: float) -> float:
@@ -47,7 +47,7 @@ def window_row(original: np.ndarray, result: SmoothingResult, **keys) -> dict:
             "fitness_before": float(fitness(w)), "fitness_after": float(fitness(p)),
             "hausdorff_mm": max(there, back), "one_sided_mm": there,
             "arc_length_change_pct": 100.0 * (float(arc_length(p)) - length) / length if length > 0 else 0.0,
-            "evaluations": result.evaluations, "seconds": result.seconds}
+            "evaluations": result.evaluations, "no_move": int(np.array_equal(p, w)), "seconds": result.seconds}
 
 
 def _stats(rows: list[dict]) -> dict:
@@ -59,7 +59,8 @@ def _stats(rows: list[dict]) -> dict:
             "max_one_sided_mm": float(max(r["one_sided_mm"] for r in rows)),
             "mean_fitness_after": float(np.mean([r["fitness_after"] for r in rows])),
             "mean_arc_length_change_pct": float(np.mean([r["arc_length_change_pct"] for r in rows])),
-            "mean_evaluations": float(np.mean([r["evaluations"] for r in rows]))}
+            "mean_evaluations": float(np.mean([r["evaluations"] for r in rows])),
+            "no_move": int(sum(r.get("no_move", 0) for r in rows))}
 
 
 def summarise(rows: Iterable[dict], dispatch: dict[int, str]) -> dict:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from toolpath.smoothing.gradient import central_difference_gradient, fitness_gradient
-from toolpath.smoothing.problem import ProblemBatch, SmoothingProblem
+from toolpath.smoothing.problem import ProblemBatch, SmoothingProblem, clip_displacement
 from toolpath.smoothing.result import SmoothingResult
 
 GRADIENTS = ("exact", "central", "off")
@@ -136,11 +136,14 @@ class NACOA:
         self.settings = settings
 
     def _gradient(self, points: np.ndarray) -> tuple[np.ndarray, int]:
+        """The gradient and its charged cost: Eq. 23's 2 evaluations per coordinate for either route
+        (the exact one is cheaper to compute, not cheaper to charge: costs are charged alike)."""
         s = self.settings
+        charged = 2 * (points.shape[-2] - 2) * 2
         if s.gradient == "exact":
-            return fitness_gradient(points), 1
+            return fitness_gradient(points), charged
         if s.gradient == "central":
-            return central_difference_gradient(points, s.eps), 2 * (points.shape[-2] - 2) * 2
+            return central_difference_gradient(points, s.eps), charged
         return np.zeros_like(points), 0
 
     def _evaluate(self, batch: ProblemBatch, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -187,6 +190,8 @@ class NACOA:
         start = time.perf_counter()
         batch, rngs = ProblemBatch(problems), [np.random.default_rng(seed) for seed in seeds]
         x = np.stack([initial_population(p, s, rng) for p, rng in zip(problems, rngs, strict=True)])
+        if batch.mode == "tube":  # start inside the discs, which the tube contains: every start is certified
+            x = clip_displacement(x.reshape(*x.shape[:-1], -1, 2), batch.tolerance).reshape(x.shape)
         x, fit = self._evaluate(batch, x)
         evaluations = x.shape[1]
         x, fit, used = self._honey_badger(batch, x, fit, rngs)

@@ -3,8 +3,9 @@
 A window's interior points move, its two end points stay.  The decision vector of every optimiser
 is the flattened interior displacement, shape ``(2 (n - 2),)``, so all methods search one space.
 Objective: Fitness (Eq. 10) = LocalCurvature (Eq. 3) + SmoothnessPenalty (Eq. 8-9), plus a fidelity
-mode: ``none`` (the paper, literally), ``penalty`` (``weight`` x the largest displacement of a point)
-or ``bound`` (the smoothed window within ``tolerance`` of the original, both ways).
+mode: ``none`` (the paper, literally), ``penalty`` (``weight`` x the largest displacement of a point),
+``bound`` (every point within ``tolerance`` of its own place: the disc bound) or ``tube`` (the window
+within ``tolerance`` of the original both ways, points free to slide along it: :mod:`toolpath.smoothing.tube`).
 
 ``bound`` is exact because it bounds each point's *displacement*: every candidate is projected onto
 the product of discs ``|P'_i - P_i| <= tolerance`` (the Euclidean projection: a point outside its disc
@@ -24,8 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from toolpath.geometry.curvature import fitness
+from toolpath.smoothing import tube
 
-MODES = ("none", "penalty", "bound")
+MODES = ("none", "penalty", "bound", "tube")
+BOUNDED = ("bound", "tube")  # the modes whose results are held within the tolerance
+# added to the objective of a tube candidate the matching cannot certify: never accepted over a
+# certified one (the first population is certified), finite so that swarm arithmetic stays finite
+INFEASIBLE = 1.0e3
 # a hair inside the disc, so rounding in the projection never lands a point outside the tolerance
 _INSIDE = 1.0 - 1e-12
 
@@ -57,6 +63,9 @@ class SmoothingProblem:
             raise ValueError(f"fidelity mode {self.mode!r} is not one of {MODES}")
         if len(self.window) < 3:
             raise ValueError("a window needs at least 3 points")
+        # the tube's geometry, and the feet of the last candidates it repaired (reused by :meth:`score`)
+        object.__setattr__(self, "_tube", tube.Tube(self.window, self.tolerance) if self.mode == "tube" else None)
+        object.__setattr__(self, "_repaired", (None, None))
 
     @property
     def dimension(self) -> int:
@@ -71,6 +80,9 @@ class SmoothingProblem:
         if project and self.mode == "bound":
             pts[..., 1:-1, :] = self.window[1:-1] + clip_displacement(pts[..., 1:-1, :] - self.window[1:-1],
                                                                       self.tolerance)
+        elif project and self.mode == "tube":
+            pts, feet = self._tube.repair(pts)
+            object.__setattr__(self, "_repaired", (pts, feet))
         return pts
 
     def objective(self, x: np.ndarray) -> np.ndarray:
@@ -84,6 +96,10 @@ class SmoothingProblem:
             # the largest displacement bounds the two-sided distance (see the module docstring)
             moved = pts[..., 1:-1, :] - self.window[1:-1]
             value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
+        elif self.mode == "tube":
+            last, feet = self._repaired
+            ok = self._tube.feasible(pts, feet if pts is last else None)
+            value = value + np.where(ok, 0.0, INFEASIBLE)
         return value
 
     def displacement(self, points: np.ndarray) -> np.ndarray:
@@ -104,6 +120,8 @@ class ProblemBatch:
         self.windows = np.stack([p.window for p in problems])[:, None]  # (W, 1, n, 2)
         self.mode, self.tolerance, self.weight = first.mode, first.tolerance, first.weight
         self.dimension = first.dimension
+        self.tubes = [p._tube for p in problems]
+        self._repaired: tuple = (None, None)
 
     def points(self, x: np.ndarray, project: bool = True) -> np.ndarray:
         """:meth:`SmoothingProblem.points` of decision vectors (W, pop, dimension)."""
@@ -112,6 +130,12 @@ class ProblemBatch:
         if project and self.mode == "bound":
             inner = self.windows[..., 1:-1, :]
             pts[..., 1:-1, :] = inner + clip_displacement(pts[..., 1:-1, :] - inner, self.tolerance)
+        elif project and self.mode == "tube":
+            feet = []
+            for k, shape_tube in enumerate(self.tubes):
+                pts[k], arc = shape_tube.repair(pts[k])
+                feet.append(arc)
+            self._repaired = (pts, feet)
         return pts
 
     def score(self, pts: np.ndarray) -> np.ndarray:
@@ -119,6 +143,10 @@ class ProblemBatch:
         if self.mode == "penalty":
             moved = pts[..., 1:-1, :] - self.windows[..., 1:-1, :]
             value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
+        elif self.mode == "tube":
+            last, feet = self._repaired
+            ok = np.stack([t.feasible(pts[k], feet[k] if pts is last else None) for k, t in enumerate(self.tubes)])
+            value = value + np.where(ok, 0.0, INFEASIBLE)
         return value
 
     def displacement(self, points: np.ndarray) -> np.ndarray:

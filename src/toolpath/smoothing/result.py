@@ -11,9 +11,9 @@ import numpy as np
 class SmoothingResult:
     """A smoothed window and what it cost.
 
-    ``evaluations`` counts objective evaluations (one candidate window each; an exact gradient counts
-    as one evaluation, a central-difference gradient as ``2 x dimension``); ``history`` is the best
-    objective after each generation (empty for the one-shot smoothers).
+    ``evaluations`` counts charged objective evaluations (one candidate window each; a gradient, exact or
+    by central differences, as the ``2 x dimension`` of Eq. 23); ``history`` is the best objective after
+    each generation (empty for the one-shot smoothers).
     """
 
     points: np.ndarray

@@ -6,9 +6,21 @@ from __future__ import annotations
 import numpy as np
 
 from toolpath.labels.split import Split
-from toolpath.smoothing.evaluate import convergence, window_row
+from toolpath.smoothing.evaluate import convergence, summarise, window_row
 from toolpath.smoothing.mealpy_runs import MEALPY_CLASSES
-from toolpath.smoothing.methods import BASELINE_ONLY, METHODS, smooth
+from toolpath.smoothing.methods import BASELINE_ONLY, METHODS, dispatch, problem_from, smooth
+from toolpath.smoothing.nacoa import NACOA
+from toolpath.smoothing.paper_metric import paired_differences, paper_metric
+
+
+def per_category(sample: dict, category: int) -> int:
+    """``sample.per_category``: one count for every category, or a count per category."""
+    count = sample["per_category"]
+    if isinstance(count, int):
+        return count
+    if category not in count and str(category) not in count:
+        raise ValueError(f"optimize.sample.per_category has no count for category {category}")
+    return int(count[category] if category in count else count[str(category)])
 
 
 def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int) -> list[tuple[int, int, bool]]:
@@ -17,7 +29,8 @@ def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int
     chosen = []
     for category in sample["categories"]:
         pool = np.flatnonzero((label == category) & (split == Split.TEST))
-        picks = rng.choice(pool, size=min(sample["per_category"], len(pool)), replace=False)
+        wanted = per_category(sample, category)
+        picks = rng.choice(pool, size=min(wanted, len(pool)), replace=False)
         with_baselines = category in sample["baseline_categories"]
         chosen += [(int(i), int(category), with_baselines and k < sample["baselines_per_category"])
                    for k, i in enumerate(picks)]
@@ -25,8 +38,9 @@ def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int
 
 
 def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
-    """Every (window, mode, method, encoding) to run; mealpy methods (both encodings) and NACOA with the
-    paper's permuting initialisation only on the baseline windows."""
+    """Every (window, mode, method, encoding) to run; mealpy methods (both encodings), NACOA with the
+    paper's permuting initialisation and NACOA at the head-to-head budget only on the baseline windows,
+    in the baseline modes."""
     unknown = [m for m in ocfg["methods"] if m not in METHODS]
     if unknown:
         raise ValueError(f"optimize.methods has unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
@@ -34,7 +48,7 @@ def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
     for index, category, baselines in chosen:
         for mode in ocfg["modes"]:
             for method in ocfg["methods"]:
-                if method in BASELINE_ONLY and not baselines:
+                if method in BASELINE_ONLY and (not baselines or mode not in ocfg.get("baseline_modes", ocfg["modes"])):
                     continue
                 for encoding in ocfg["encodings"] if method in MEALPY_CLASSES else ["plain"]:
                     tasks.append({"window": index, "category": category, "baseline_window": baselines,
@@ -58,3 +72,53 @@ def convergence_curves(tasks: list[dict], outputs: list) -> dict[str, np.ndarray
                 and (not baseline_windows or task["window"] in baseline_windows)):
             histories.setdefault(task["method"], []).append((history, row["fitness_before"]))
     return convergence(histories)
+
+
+def study_windows(label: np.ndarray, split: np.ndarray, study: dict, seed: int) -> list[int]:
+    """Validation windows (never test) of categories 2-4 for NACOA's convergence study."""
+    rng = np.random.default_rng(seed)
+    chosen = []
+    for category in (2, 3, 4):
+        pool = np.flatnonzero((label == category) & (split == Split.VAL))
+        chosen += [int(i) for i in rng.choice(pool, size=min(study["windows_per_category"], len(pool)), replace=False)]
+    return chosen
+
+
+def run_study_task(job: tuple[np.ndarray, int, dict, int]) -> float:
+    """Fitness NACOA reaches on one window in tube mode with ``generations`` (one study cell)."""
+    from dataclasses import replace
+
+    from toolpath.smoothing.methods import nacoa_settings
+
+    window, generations, ocfg, seed = job
+    problem = problem_from(window, ocfg, "tube")
+    settings = replace(nacoa_settings(ocfg, problem.tolerance), generations=generations)
+    return NACOA(settings).solve(problem, seed).objective
+
+
+def choose_generations(counts: list[int], fitness: np.ndarray, within_pct: float) -> dict:
+    """The cheapest generation count whose mean Fitness over the study windows is within ``within_pct``
+    per cent of the best count's; ``fitness`` is (counts, windows)."""
+    means = fitness.mean(axis=1)
+    best = float(means.min())
+    chosen = next(c for c, m in zip(counts, means, strict=True) if m <= best * (1.0 + within_pct / 100.0))
+    return {"generations": counts, "mean_fitness": means.tolist(), "best_mean_fitness": best,
+            "within_pct": within_pct, "chosen": int(chosen), "windows": int(fitness.shape[1])}
+
+
+def summarise_run(rows: list[dict], chosen: list[tuple[int, int, bool]], tasks: list[dict], ocfg: dict, study: dict,
+                  seed: int) -> dict:
+    """The stage's deterministic summary: :func:`summarise`'s all-category means, the paper's metric on
+    categories 2-4 with intervals, Table 6's paired differences (NACOA at the matched budget minus each
+    baseline, on the baseline windows), the convergence study and the sample; ``seed`` draws the
+    bootstrap resamples."""
+    mapping = {int(k): v for k, v in ocfg["dispatch"].items()}
+    categories = sorted({c for _, c, _ in chosen})
+    summary = summarise(rows, {c: dispatch(c, mapping) for c in categories})
+    summary["paper_metric"] = paper_metric(rows, mapping, seed)
+    summary["head_to_head_paired"] = paired_differences([r for r in rows if r["baseline_window"]], "nacoa_matched",
+                                                        seed)
+    summary["convergence_study"] = study
+    summary["sample"] = {"windows": len(chosen), "runs": len(tasks),
+                         "per_category": {str(c): sum(1 for _, k, _ in chosen if k == c) for c in categories}}
+    return summary

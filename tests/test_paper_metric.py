@@ -1,0 +1,87 @@
+"""Sec. 5.2.4's metric on categories 2-4 with bootstrap intervals (toolpath.smoothing.paper_metric),
+on rows built by hand, and the report's sentences that follow the intervals."""
+
+import pytest
+
+from toolpath.reports import smoothing_tables
+from toolpath.smoothing.paper_metric import paired_differences, paper_metric
+
+
+def row(window, category, method, reduction, before=2.0, mode="tube", encoding="plain", **extra):
+    return {"window": window, "category": category, "method": method, "mode": mode, "encoding": encoding,
+            "reduction_pct": reduction, "local_curvature_before": before,
+            "local_curvature_after": before * (1 - reduction / 100), **extra}
+
+
+def sample_rows():
+    rows = []
+    for w in range(12):
+        category = 1 + w % 4
+        # NACOA 90 on every window, Bezier 60, mean filter 30 (+-1 by window): one order, always
+        rows += [row(w, category, "nacoa", 90 + (w % 3 - 1)), row(w, category, "bezier", 60 + (w % 3 - 1)),
+                 row(w, category, "mean_filter", 30 + (w % 3 - 1))]
+    return rows
+
+
+def test_the_pooled_figure_leaves_category_1_out_and_brackets_its_mean():
+    result = paper_metric(sample_rows(), {2: "mean_filter", 3: "bezier", 4: "nacoa"}, seed=0)["tube"]
+    nacoa = result["methods"]["nacoa"]
+    pooled = nacoa["categories_2_4"]
+    assert pooled["windows"] == 9 and nacoa["category_1"]["windows"] == 3
+    # windows 1, 2, 3, 5, 6, 7, 9, 10, 11 (category 2-4): w % 3 - 1 sums to 0 over them, so the mean is 90
+    assert pooled["mean_reduction_pct"] == pytest.approx(90.0)
+    low, high = pooled["mean_reduction_ci"]
+    assert low <= 90.0 <= high and high - low < 2.0
+    # every window has LocalCurvature 2 before, so the summed reduction equals the mean one
+    assert pooled["summed_reduction_pct"] == pytest.approx(90.0)
+    assert set(nacoa["per_category"]) == {"2", "3", "4"}
+
+
+def test_the_dispatch_row_takes_each_categorys_method():
+    result = paper_metric(sample_rows(), {2: "mean_filter", 3: "bezier", 4: "nacoa"}, seed=0)["tube"]
+    # categories 2 / 3 / 4 are windows 1, 5, 9 / 2, 6, 10 / 3, 7, 11: offsets (0, 0, 0) / (1, -1, 0) / (-1, 0, 1)
+    assert result["dispatch"]["mean_reduction_pct"] == pytest.approx((30 * 3 + 60 * 3 + 90 * 3) / 9)
+    assert result["dispatch"]["windows"] == 9
+
+
+def test_a_ranking_that_holds_on_every_window_holds_in_every_resample():
+    ranking = paper_metric(sample_rows(), {2: "mean_filter", 3: "bezier", 4: "nacoa"}, seed=0)["tube"]["ranking"]
+    assert ranking["order"] == ["nacoa", "bezier", "mean_filter"] and ranking["probability"] == 1.0
+
+
+def test_a_close_ranking_is_not_called_a_difference():
+    rows = []
+    for w in range(20):
+        noise = 15.0 if w % 2 else -15.0
+        rows += [row(w, 2 + w % 3, "nacoa", 70 + noise), row(w, 2 + w % 3, "bezier", 69 - noise),
+                 row(w, 2 + w % 3, "mean_filter", 80)]
+    metrics = {"gear": {"paper_metric": paper_metric(rows, {2: "mean_filter", 3: "bezier", 4: "nacoa"}, seed=1)}}
+    note = smoothing_tables.ranking_notes(metrics)[0]
+    assert "not shown to differ" in note or "differs" in note
+    # NACOA vs Bezier flips from resample to resample: our order holds in well under every resample
+    assert metrics["gear"]["paper_metric"]["tube"]["ranking"]["probability"] < 0.95
+
+
+def test_against_the_paper_says_above_or_below_only_outside_the_interval():
+    figure = {"mean_reduction_pct": 75.0, "mean_reduction_ci": [70.0, 80.0]}
+    assert smoothing_tables.against_paper(figure, 78.0).startswith("no difference")
+    assert smoothing_tables.against_paper(figure, 85.0).startswith("below")
+    assert smoothing_tables.against_paper(figure, 54.0).startswith("above")
+
+
+def test_paired_differences_pair_windows_and_bracket_the_mean():
+    rows = [row(w, 4, "nacoa_matched", 80 + w) for w in range(8)] + [row(w, 4, "pso", 70 + w) for w in range(8)]
+    rows += [row(w, 4, "pso", 10.0, encoding="shifted") for w in range(8)]
+    diffs = paired_differences(rows, "nacoa_matched", seed=2)["tube"]
+    assert diffs["pso"]["mean_difference_pct"] == pytest.approx(10.0)
+    assert diffs["pso"]["ci"] == pytest.approx([10.0, 10.0])  # the same 10 points on every window
+    assert diffs["pso@shifted"]["mean_difference_pct"] == pytest.approx(73.5)
+
+
+def test_one_window_has_no_interval_and_the_report_says_so():
+    rows = [row(0, 4, "nacoa", 80.0), row(0, 4, "bezier", 50.0), row(0, 4, "mean_filter", 40.0)]
+    pooled = paper_metric(rows, {4: "nacoa"}, seed=0)["tube"]["methods"]["nacoa"]["categories_2_4"]
+    assert all(v != v for v in pooled["mean_reduction_ci"])  # NaN, written as null in the JSON
+    written = {**pooled, "mean_reduction_ci": [None, None]}
+    assert smoothing_tables.with_interval(written) == "80.0 [no interval]"
+    assert smoothing_tables.against_paper(written, 78.0) == "too few windows for an interval"
