@@ -85,3 +85,23 @@ def test_one_window_has_no_interval_and_the_report_says_so():
     written = {**pooled, "mean_reduction_ci": [None, None]}
     assert smoothing_tables.with_interval(written) == "80.0 [no interval]"
     assert smoothing_tables.against_paper(written, 78.0) == "too few windows for an interval"
+
+
+def test_the_study_table_says_when_the_largest_count_was_chosen():
+    study = {"generations": [20, 40, 80], "mean_fitness": [2.0, 1.5, 1.2], "best_mean_fitness": 1.2,
+             "within_pct": 1.0, "chosen": 80, "windows": 6}
+    table = smoothing_tables.study_table({"gear": {"convergence_study": study}})
+    assert table.rows == [["gear", "6", "2.0000", "1.5000", "1.2000", "G = 80"]]
+    assert any("still falling" in n for n in table.notes)
+    study = {**study, "mean_fitness": [1.21, 1.2, 1.2], "chosen": 20}
+    assert not any("still falling" in n for n in smoothing_tables.study_table({"gear": {"convergence_study": study}}).notes)
+
+
+def test_choose_generations_takes_the_cheapest_within_the_share():
+    import numpy as np
+
+    from toolpath.smoothing.runs import choose_generations
+
+    chosen = choose_generations([10, 20, 40], np.array([[2.0, 2.2], [1.02, 1.0], [1.0, 1.0]]), 1.0)
+    assert chosen["chosen"] == 20 and chosen["best_mean_fitness"] == 1.0  # 1.01 is within 1 % of 1.0
+    assert choose_generations([10, 20], np.array([[1.5], [1.0]]), 1.0)["chosen"] == 20

@@ -223,4 +223,9 @@ def study_table(metrics: Mapping[str, Mapping]) -> Table:
         within = metrics[shapes[0]]["convergence_study"]["within_pct"]
         table.notes.append(f"Chosen: the cheapest count whose mean Fitness is within {within:g} % of the best count's, "
                            "on validation windows of categories 2-4 (never the test windows the tables score).")
+        capped = [s for s in shapes if metrics[s]["convergence_study"]["chosen"] == max(
+            metrics[s]["convergence_study"]["generations"])]
+        if capped:
+            table.notes.append(f"On {', '.join(capped)} the largest count tried was chosen: Fitness was still falling, "
+                               "so NACOA is not converged there and more generations would reduce more, at their cost.")
     return table
