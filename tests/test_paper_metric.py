@@ -94,7 +94,8 @@ def test_the_study_table_says_when_the_largest_count_was_chosen():
     assert table.rows == [["gear", "6", "2.0000", "1.5000", "1.2000", "G = 80"]]
     assert any("still falling" in n for n in table.notes)
     study = {**study, "mean_fitness": [1.21, 1.2, 1.2], "chosen": 20}
-    assert not any("still falling" in n for n in smoothing_tables.study_table({"gear": {"convergence_study": study}}).notes)
+    notes = smoothing_tables.study_table({"gear": {"convergence_study": study}}).notes
+    assert not any("still falling" in n for n in notes)
 
 
 def test_choose_generations_takes_the_cheapest_within_the_share():
