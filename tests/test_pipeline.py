@@ -116,7 +116,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert corner["surrogates"]["sources"]["infeasible"] == 0
     for shape in ("gear", "pentagram", "maple_leaf"):
         planned = json.loads((work / f"reports/metrics/feedrate/{shape}.json").read_text())
-        assert planned["methods"]["bound"]["plain"]["nacoa"]["all_within_limits"]
+        assert planned["methods"]["tube"]["plain"]["nacoa"]["all_within_limits"]
     report = (work / "reports/report.md").read_text()
     assert "Xie & Zhu, Table 1" in report and "NURBS corner paper, cases 1-3" in report
     assert "Missing section" not in report and "Profile `smoke`" in report

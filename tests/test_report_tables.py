@@ -89,16 +89,16 @@ def test_table6_pools_each_optimisers_reduction_over_the_shapes():
 
 def test_reduction_table_shows_ours_beside_the_paper_and_flags_a_ranking_unlike_the_papers():
     metrics, _ = optimize_metrics()
-    stats = metrics["gear"]["methods"]["bound"]["plain"]
+    stats = metrics["gear"]["methods"]["tube"]["plain"]
     stats["nacoa"]["mean_reduction_pct"], stats["bezier"]["mean_reduction_pct"] = 12.34, 50.0
     stats["mean_filter"]["mean_reduction_pct"] = 40.0
     table = smoothing.reduction_table(metrics)
-    gear_bound = [r for r in table.rows if r[0] == "gear" and r[1] == "bound (discs, stricter)"][0]
+    gear_bound = [r for r in table.rows if r[0] == "gear" and r[1] == "bound (tube)"][0]
     assert "12.3 (78, -65.7)" in gear_bound
-    start = "gear, bound (discs, stricter), all categories, no interval: Bezier > mean filter > NACOA (not the paper's"
+    start = "gear, bound (tube), all categories, no interval: Bezier > mean filter > NACOA (not the paper's"
     assert any(n.startswith(start) for n in table.notes)
     stats["nacoa"]["mean_reduction_pct"] = 90.0
-    assert any(n.startswith("gear, bound (discs, stricter)") and "as in the paper" in n
+    assert any(n.startswith("gear, bound (tube)") and "as in the paper" in n
                for n in smoothing.reduction_table(metrics).notes)
 
 
@@ -144,9 +144,9 @@ def test_surrogate_and_pso_study_tables_show_their_counts():
 
 def test_windows_table_shows_time_saved_and_a_dash_where_a_method_did_not_run():
     per_shape = {s: load(f"metrics/feedrate/{s}.json") for s in SHAPES}
-    per_shape["gear"]["methods"]["bound"]["plain"]["nacoa"]["time_saved_pct"] = -4.25
-    del per_shape["pentagram"]["methods"]["bound"]["plain"]["nacoa"]
-    row = row_of(corner_report.windows_table(per_shape, "bound"), "nacoa")
+    per_shape["gear"]["methods"]["tube"]["plain"]["nacoa"]["time_saved_pct"] = -4.25
+    del per_shape["pentagram"]["methods"]["tube"]["plain"]["nacoa"]
+    row = row_of(corner_report.windows_table(per_shape, "tube"), "nacoa")
     assert row[1].startswith("-4.2 / ") and row[2] == "-"
 
 

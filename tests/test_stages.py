@@ -152,23 +152,28 @@ def test_optimize_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
     with (smoke_dir / "reports/metrics/optimize/gear.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == summary["sample"]["runs"] > 0
-    methods = {"mean_filter", "bezier", "nacoa", "coa", "pso"}  # the smoke profile's methods
-    assert set(summary["methods"]["bound"]["plain"]) == methods
-    assert set(summary["methods"]["none"]["shifted"]) == {"coa", "pso"}  # mealpy ones, both encodings
+    methods = {"mean_filter", "bezier", "nacoa", "nacoa_matched", "coa", "pso"}  # the smoke profile's methods
+    assert set(summary["methods"]["tube"]["plain"]) == methods
+    assert set(summary["methods"]["tube"]["shifted"]) == {"coa", "pso"}  # mealpy ones, both encodings, tube only
+    assert set(summary["methods"]["none"]["plain"]) == {"mean_filter", "bezier", "nacoa"}
     for row in rows:
-        if row["mode"] == "bound":
+        if row["mode"] in ("bound", "tube"):
             assert float(row["hausdorff_mm"]) <= 0.05 + 1e-9
-    assert summary["dispatch"]["bound"]["1"]["method"] == "none"
+    assert summary["dispatch"]["tube"]["1"]["method"] == "none"
+    smoothed_windows = sum(summary["sample"]["per_category"].get(c, 0) for c in ("2", "3", "4"))  # all but category 1
+    assert summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["windows"] == smoothed_windows > 0
     curves = (smoke_dir / "reports/plots/optimize/gear.csv").read_text().splitlines()
     assert curves[0].split(",")[0] == "budget_fraction" and "nacoa" in curves[0]
     smoothed = np.load(smoke_dir / "data/smoothed/gear.npz")
     assert smoothed["points"].shape == (len(rows), 50, 2)
     timing = json.loads((smoke_dir / "reports/timing/optimize/gear.json").read_text())
-    assert timing["bound"]["plain"]["nacoa"]["complexity"] == "O(n^2) + O(t p d)"
+    assert timing["tube"]["plain"]["nacoa"]["complexity"] == "O(n^2) + O(t p d)"
     run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
                if r.info.run_name == "optimize@gear")
-    assert run.data.metrics["bound.plain.nacoa.mean_reduction_pct"] == pytest.approx(
-        summary["methods"]["bound"]["plain"]["nacoa"]["mean_reduction_pct"])
+    assert run.data.metrics["tube.plain.nacoa.all_categories_reduction_pct"] == pytest.approx(
+        summary["methods"]["tube"]["plain"]["nacoa"]["mean_reduction_pct"])
+    assert run.data.metrics["cat2_4_reduction_pct.tube.nacoa"] == pytest.approx(
+        summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["mean_reduction_pct"])
     optimize.main(["--shape", "gear"])  # same seed, same bytes
     assert summary_path.read_bytes() == first
 

@@ -63,12 +63,14 @@ def run_task(job: tuple[dict, np.ndarray, dict, int]) -> tuple[dict, np.ndarray,
 
 
 def convergence_curves(tasks: list[dict], outputs: list) -> dict[str, np.ndarray]:
-    """Mean convergence per optimiser in ``bound`` mode, plain encoding, on the windows every
-    optimiser ran (the baseline windows; all windows when no baseline ran)."""
+    """Mean convergence per optimiser in ``tube`` mode (``bound`` where no tube ran), plain encoding, on
+    the windows every optimiser ran (the baseline windows; all windows when no baseline ran)."""
     baseline_windows = {t["window"] for t in tasks if t["method"] in MEALPY_CLASSES}
+    modes = {t["mode"] for t in tasks}
+    drawn = next((m for m in ("tube", "bound") if m in modes), None)  # the headline's bound where it ran
     histories: dict[str, list] = {}
     for task, (row, _, history) in zip(tasks, outputs, strict=True):
-        if (history and task["mode"] == "bound" and task["encoding"] == "plain"
+        if (history and task["mode"] == drawn and task["encoding"] == "plain"
                 and (not baseline_windows or task["window"] in baseline_windows)):
             histories.setdefault(task["method"], []).append((history, row["fitness_before"]))
     return convergence(histories)
