@@ -69,3 +69,49 @@ def test_random_certified_candidates_are_within_the_tolerance_exactly():
     ok = feasible(candidates, window, tolerance)
     assert ok.sum() > 10
     assert (np.asarray(hausdorff(candidates[ok], window)) <= tolerance + 1e-12).all()
+
+
+def _matching_by_hand(candidate: np.ndarray, window: np.ndarray, tolerance: float) -> bool:
+    """Conditions 1-3 of toolpath.smoothing.tube, point by point in plain Python (the compiled loops'
+    reference): the nearest foot on the BAND segments each side, feet in order, vertices between."""
+    n, band = len(window), 2
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(window, axis=0), axis=1))])
+    feet = [0.0]
+    for i in range(1, n - 1):
+        best = None
+        for k in sorted({min(max(i + c, 0), n - 2) for c in range(-band, band)}):
+            a, u = window[k], window[k + 1] - window[k]
+            t = min(max(float(np.dot(candidate[i] - a, u) / np.dot(u, u)), 0.0), 1.0)
+            d = float(np.linalg.norm(candidate[i] - (a + t * u)))
+            if best is None or d < best[0]:
+                best = (d, arc[k] + t * np.linalg.norm(u))
+        if best[0] > tolerance:
+            return False
+        feet.append(best[1])
+    feet.append(arc[-1])
+    if any(b < a for a, b in zip(feet, feet[1:])):
+        return False
+    for i in range(n - 1):
+        a, u = candidate[i], candidate[i + 1] - candidate[i]
+        running = -np.inf
+        for j in sorted({min(max(i + c, 1), n - 2) for c in range(-band + 1, band + 1)}):
+            if not feet[i] < arc[j] < feet[i + 1]:
+                continue
+            t = min(max(float(np.dot(window[j] - a, u) / max(np.dot(u, u), 1e-300)), 0.0), 1.0)
+            if np.linalg.norm(window[j] - (a + t * u)) > tolerance or t < running:
+                return False
+            running = max(running, t)
+    return True
+
+
+def test_the_compiled_certificate_agrees_with_the_matching_written_out_by_hand():
+    rng = np.random.default_rng(11)
+    window = square_corner() + rng.normal(0, 0.01, (21, 2))
+    window[[0, -1]] = square_corner()[[0, -1]]
+    tolerance = 0.05
+    candidates = window + rng.normal(0, 1.0, (300, 1, 1)) * rng.normal(0, 0.03, (300, 21, 2))
+    candidates[:, [0, -1]] = window[[0, -1]]
+    compiled = tube_certified(candidates, window, tolerance)
+    by_hand = np.array([_matching_by_hand(c, window, tolerance) for c in candidates])
+    assert 10 < by_hand.sum() < 290  # both outcomes are exercised
+    assert (compiled == by_hand).all()

@@ -146,10 +146,12 @@ class NACOA:
             return central_difference_gradient(points, s.eps), charged
         return np.zeros_like(points), 0
 
-    def _evaluate(self, batch: ProblemBatch, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Feasible decision vectors (projected in ``bound`` mode) and their objective values."""
+    def _evaluate(self, batch: ProblemBatch, x: np.ndarray,
+                  incumbent: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Feasible decision vectors (projected in ``bound`` mode) and their objective values; with the
+        ``incumbent`` values, exact only where they are lower (all the greedy rule compares)."""
         points = batch.points(x)
-        return batch.displacement(points), batch.score(points)
+        return batch.displacement(points), batch.score(points, below=incumbent)
 
     def _honey_badger(self, batch: ProblemBatch, x, fit, rngs) -> tuple[np.ndarray, np.ndarray, int]:
         """Sec. 4.2.1: ``hba_generations`` of digging / foraging around the global best (Eq. 4-5, 11)."""
@@ -175,7 +177,7 @@ class NACOA:
                        + sign * r2 * s.alpha1 * d_vec * np.abs(np.cos(2 * np.pi * r3) * (1 - np.cos(2 * np.pi * r4))))
             foraging = best + sign * r5 * s.alpha1 * d_vec
             moved = np.where(r6 <= 0.5, digging, foraging).reshape(count, pop, -1)
-            moved, moved_fit = self._evaluate(batch, moved)
+            moved, moved_fit = self._evaluate(batch, moved, fit)
             evaluations += pop
             better = moved_fit < fit
             x[better], fit[better] = moved[better], moved_fit[better]  # Eq. 11 keeps the best over generations
@@ -222,7 +224,7 @@ class NACOA:
             else:
                 scale = 1.0
             pts = pts - learning_rate(g, s.eta0, s.decay) * grad / np.maximum(scale, 1e-12)
-            moved, moved_fit = self._evaluate(batch, batch.displacement(pts))
+            moved, moved_fit = self._evaluate(batch, batch.displacement(pts), fit)
             evaluations += x.shape[1] * (1 + cost)
             better = moved_fit < fit
             x[better], fit[better] = moved[better], moved_fit[better]

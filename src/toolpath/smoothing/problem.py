@@ -138,15 +138,21 @@ class ProblemBatch:
             self._repaired = (pts, feet)
         return pts
 
-    def score(self, pts: np.ndarray) -> np.ndarray:
+    def score(self, pts: np.ndarray, below: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`SmoothingProblem.score` of candidates (W, pop, n, 2).  ``below`` (W, pop): the values a
+        caller will only compare them against (``score < below``, the greedy rule); a tube candidate whose
+        Fitness is not below it is then left uncertified (no penalty can bring it below), which gives the
+        same comparisons at a fraction of the cost, since the tube check is most of a generation's work."""
         value = fitness(pts)
         if self.mode == "penalty":
             moved = pts[..., 1:-1, :] - self.windows[..., 1:-1, :]
             value = value + self.weight * np.sqrt(moved[..., 0] ** 2 + moved[..., 1] ** 2).max(axis=-1)
         elif self.mode == "tube":
             last, feet = self._repaired
-            ok = np.stack([t.feasible(pts[k], feet[k] if pts is last else None) for k, t in enumerate(self.tubes)])
-            value = value + np.where(ok, 0.0, INFEASIBLE)
+            for k, shape_tube in enumerate(self.tubes):
+                todo = slice(None) if below is None else np.flatnonzero(value[k] < below[k])
+                ok = shape_tube.feasible(pts[k][todo], feet[k][todo] if pts is last else None)
+                value[k][todo] += np.where(ok, 0.0, INFEASIBLE)
         return value
 
     def displacement(self, points: np.ndarray) -> np.ndarray:

@@ -46,65 +46,64 @@ class Tube:
         self.inverse = np.where(length2 > 0, 1.0 / np.where(length2 > 0, length2, 1.0), 0.0)
         self.band_arc, self.band_length = self.arc[band], np.sqrt(length2)
         # vertices j that may fall strictly between the feet of new points i and i + 1
-        i = np.arange(n - 1)[:, None]
-        j = np.clip(i + np.arange(-BAND + 1, BAND + 1)[None, :], 1, n - 2)  # (n-1, 2 BAND)
-        self.i, self.j_arc, self.jx, self.jy = i, self.arc[j], w[j, 0], w[j, 1]
+        j = np.clip(np.arange(n - 1)[:, None] + np.arange(-BAND + 1, BAND + 1)[None, :], 1, n - 2)  # (n-1, 2 BAND)
+        self.j_arc, self.jx, self.jy = self.arc[j], w[j, 0], w[j, 1]
         self.distinct = np.concatenate([np.ones_like(j[:, :1], dtype=bool), j[:, 1:] != j[:, :-1]], axis=1)
+        self._kernels = _kernels()
+
+    def _stack(self, points: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(points, dtype=np.float64).reshape(-1, *self.window.shape)
 
     def feet(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Nearest point ``Q_i`` (x and y, each (..., n - 2)) on the band of original segments for every
         interior point of candidates ``points`` (..., n, 2), and its arc parameter (..., n - 2)."""
-        # per coordinate, not a sum over an axis of 2: NACOA calls this on the whole population each generation
-        px, py = points[..., 1:-1, 0, None], points[..., 1:-1, 1, None]  # (..., n-2, 1)
-        t = np.clip(((px - self.ax) * self.ux + (py - self.ay) * self.uy) * self.inverse, 0.0, 1.0)
-        fx, fy = self.ax + t * self.ux, self.ay + t * self.uy
-        best = ((px - fx) ** 2 + (py - fy) ** 2).argmin(axis=-1)[..., None]
-        pick = lambda a: np.take_along_axis(a, best, axis=-1)[..., 0]  # noqa: E731
-        return pick(fx), pick(fy), pick(self.band_arc + t * self.band_length)
+        lead = np.shape(points)[:-2]
+        qx, qy, s = self._kernels.feet(self._stack(points), self.ax, self.ay, self.ux, self.uy, self.inverse,
+                                       self.band_arc, self.band_length)
+        return qx.reshape(*lead, -1), qy.reshape(*lead, -1), s.reshape(*lead, -1)
 
     def repair(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every interior point farther than the tolerance from its foot pulled onto the tube's rim
         (condition 1 of the module docstring), and the feet's arc parameters (a point moved towards its
         nearest foot keeps it, so they hold for the result)."""
         out = np.array(points, dtype=np.float64, copy=True)
-        qx, qy, s = self.feet(out)
-        dx, dy = out[..., 1:-1, 0] - qx, out[..., 1:-1, 1] - qy
-        length = np.sqrt(dx * dx + dy * dy)
-        limit = self.tolerance * _INSIDE
-        scale = np.where(length > limit, limit / np.maximum(length, 1e-300), 1.0)
-        out[..., 1:-1, 0], out[..., 1:-1, 1] = qx + dx * scale, qy + dy * scale
-        return out, s
+        flat = out.reshape(-1, *self.window.shape)  # a view: the kernel repairs ``out`` in place
+        qx, qy, s = self._kernels.feet(flat, self.ax, self.ay, self.ux, self.uy, self.inverse, self.band_arc,
+                                       self.band_length)
+        self._kernels.repair(flat, qx, qy, self.tolerance * _INSIDE)
+        return out, s.reshape(*out.shape[:-2], -1)
 
     def certified(self, points: np.ndarray, s_inner: np.ndarray | None = None) -> np.ndarray:
         """Conditions 1-3 of the module docstring for candidates (..., n, 2); boolean (...,).
         ``s_inner``: the feet's arc parameters when :meth:`repair` gave them."""
+        lead = np.shape(points)[:-2]
+        flat = self._stack(points)
         tol2 = self.tolerance * self.tolerance
         if s_inner is None:
-            qx, qy, s_inner = self.feet(points)
-            dx, dy = points[..., 1:-1, 0] - qx, points[..., 1:-1, 1] - qy
+            qx, qy, s_inner = self._kernels.feet(flat, self.ax, self.ay, self.ux, self.uy, self.inverse,
+                                                 self.band_arc, self.band_length)
+            dx, dy = flat[:, 1:-1, 0] - qx, flat[:, 1:-1, 1] - qy
             near = (dx * dx + dy * dy).max(axis=-1, initial=0.0) <= tol2
         else:  # repaired: every point is on or inside the rim around its foot
-            near = np.ones(points.shape[:-2], dtype=bool)
-        lead = points.shape[:-2]
-        s = np.concatenate([np.zeros((*lead, 1)), s_inner, np.full((*lead, 1), self.arc[-1])], axis=-1)
-        forward = (np.diff(s, axis=-1) >= 0).all(axis=-1)
-        i = self.i
-        inside = (self.j_arc > s[..., i]) & (self.j_arc < s[..., i + 1]) & self.distinct  # (..., n-1, 2 BAND)
-        ax, ay = points[..., :-1, 0, None], points[..., :-1, 1, None]
-        ux, uy = points[..., 1:, 0, None] - ax, points[..., 1:, 1, None] - ay
-        vx, vy = self.jx - ax, self.jy - ay
-        length2 = ux * ux + uy * uy
-        t = np.clip((vx * ux + vy * uy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
-        close = np.where(inside, (vx - t * ux) ** 2 + (vy - t * uy) ** 2 <= tol2, True).all(axis=(-2, -1))
-        # the feet of the inside vertices along a new segment must not run backwards
-        running = np.maximum.accumulate(np.where(inside, t, -np.inf), axis=-1)
-        ordered = np.where(inside, t >= running, True).all(axis=(-2, -1))
-        return near & forward & close & ordered
+            near = np.ones(len(flat), dtype=bool)
+        s_flat = np.ascontiguousarray(s_inner, dtype=np.float64).reshape(len(flat), len(self.window) - 2)
+        ok = self._kernels.certified(flat, s_flat, near, float(self.arc[-1]), self.j_arc, self.jx, self.jy,
+                                     self.distinct, tol2)
+        return ok.reshape(lead)
 
     def feasible(self, points: np.ndarray, s_inner: np.ndarray | None = None) -> np.ndarray:
         """Certified by the tube matching or by the discs (pairing each point with its own original place
         is a matching too, but the nearest-foot matching need not find it)."""
         return self.certified(points, s_inner) | within_discs(points, self.window, self.tolerance)
+
+
+def _kernels():
+    """The compiled loops (numba, a ``pipeline`` extra: only the research pipeline runs the tube)."""
+    try:
+        from toolpath.smoothing import tube_kernels
+    except ImportError as exc:  # the core install: ``toolpath smooth`` holds the discs, never the tube
+        raise RuntimeError("the tube fidelity mode needs numba: pip install 'toolpath-lab[pipeline]'") from exc
+    return tube_kernels
 
 
 def repair(points: np.ndarray, window: np.ndarray, tolerance: float) -> np.ndarray:
