@@ -106,3 +106,16 @@ def test_choose_generations_takes_the_cheapest_within_the_share():
     chosen = choose_generations([10, 20, 40], np.array([[2.0, 2.2], [1.02, 1.0], [1.0, 1.0]]), 1.0)
     assert chosen["chosen"] == 20 and chosen["best_mean_fitness"] == 1.0  # 1.01 is within 1 % of 1.0
     assert choose_generations([10, 20], np.array([[1.5], [1.0]]), 1.0)["chosen"] == 20
+
+
+def test_a_mode_capped_per_category_runs_on_the_first_windows_of_each_draw():
+    from toolpath.smoothing.runs import plan
+
+    chosen = [(10, 2, False), (11, 2, False), (12, 2, False), (20, 3, False), (21, 3, False)]
+    ocfg = {"methods": ["mean_filter"], "modes": ["none", "tube"], "encodings": ["plain"],
+            "sample": {"per_category_by_mode": {"none": 2}}}
+    runs = {(t["mode"], t["window"]) for t in plan(chosen, ocfg)}
+    assert {w for m, w in runs if m == "none"} == {10, 11, 20, 21}
+    assert {w for m, w in runs if m == "tube"} == {10, 11, 12, 20, 21}
+    with pytest.raises(ValueError, match="per_category_by_mode"):
+        plan(chosen, {**ocfg, "sample": {"per_category_by_mode": {"bound": 2}}})

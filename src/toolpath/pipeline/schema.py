@@ -74,6 +74,7 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "generalise.schedule.lr": POSITIVE, "generalise.threads": _int(1),
     "optimize.tolerance": POSITIVE, "optimize.penalty_weight": _real(ge=0), "optimize.box": POSITIVE,
     "optimize.workers": _int(1), "optimize.sample.per_category.*": _int(1),
+    "optimize.sample.per_category_by_mode.*": _int(1),
     "optimize.sample.baselines_per_category": _int(0), "optimize.mean_filter.width": _int(1),
     "optimize.mean_filter.passes": _int(1), "optimize.bezier.degree": _int(1, 30),
     "optimize.nacoa.population": _int(2), "optimize.nacoa.generations": _int(1),

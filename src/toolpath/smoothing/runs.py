@@ -3,6 +3,8 @@ each, running one task, and the convergence curves of the optimisers."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from toolpath.labels.split import Split
@@ -40,13 +42,21 @@ def sample_windows(label: np.ndarray, split: np.ndarray, sample: dict, seed: int
 def plan(chosen: list[tuple[int, int, bool]], ocfg: dict) -> list[dict]:
     """Every (window, mode, method, encoding) to run; mealpy methods (both encodings), NACOA with the
     paper's permuting initialisation and NACOA at the head-to-head budget only on the baseline windows,
-    in the baseline modes."""
+    in the baseline modes; a mode of ``sample.per_category_by_mode`` only on the first windows of each
+    category's draw (the baseline windows are the first too)."""
     unknown = [m for m in ocfg["methods"] if m not in METHODS]
     if unknown:
         raise ValueError(f"optimize.methods has unknown method(s) {', '.join(unknown)}; known: {', '.join(METHODS)}")
-    tasks = []
+    caps = ocfg["sample"].get("per_category_by_mode") or {}
+    if unknown := [m for m in caps if m not in ocfg["modes"]]:
+        raise ValueError(f"optimize.sample.per_category_by_mode names mode(s) {', '.join(unknown)} not in "
+                         f"optimize.modes")
+    tasks, rank = [], Counter()
     for index, category, baselines in chosen:
+        rank[category] += 1  # this window's place in its category's draw: a cap keeps the first ones
         for mode in ocfg["modes"]:
+            if mode in caps and rank[category] > int(caps[mode]):
+                continue
             for method in ocfg["methods"]:
                 if method in BASELINE_ONLY and (not baselines or mode not in ocfg.get("baseline_modes", ocfg["modes"])):
                     continue
