@@ -210,3 +210,11 @@ def test_feedrate_summary_totals_and_worst_cases():
     assert stats["time_saved_pct"] == pytest.approx(100 * (1 - 3.5 / 4.0))  # of the totals, not the mean
     assert stats["mean_window_time_saved_pct"] == pytest.approx(25.0)
     assert stats["max_hausdorff_mm"] == 0.04 and stats["windows"] == 2 and stats["all_within_limits"]
+
+
+def test_a_feedrate_row_is_bracketed_only_where_a_bound_was_computed():
+    from toolpath.stages.feedrate import _bracketed
+
+    assert _bracketed({"time": 1.0}, {"time": 2.0}) is None
+    assert _bracketed({"bracketed": True}, {"time": 2.0}) is True
+    assert _bracketed({"bracketed": True}, {"bracketed": False}) is False
