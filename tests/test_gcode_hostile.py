@@ -63,6 +63,11 @@ def test_split_lines_keeps_every_ending():
     ("G1 X1 " + "(" + "c" * (MAX_LINE_LENGTH + 1) + ")\n", 1, "longer than"),
     ("G1 X[1e300*1e300] F100\n", 1, "unexpected 'e300*1e3' in an expression"),  # no exponents in G-code
     ("G1 X0 Y0 F100\nG2 X1 Y0 I0.5 J0 K1\n", 2, "not of the XY plane"),
+    # numbers a controller does not read: exponents, non-ASCII digits and blanks (Python's float reads them)
+    ("G1 X0 Y0 F100\nG1 X1e12 Y0\n", 2, "X1e12: exponent notation is not G-code"),
+    ("G1 X1E-3 F100\n", 1, "X1E-3: exponent notation"),
+    ("G1 X\u0663.050 F100\n", 1, "U+0663) outside a comment"),
+    ("G1 X1\u00a0Y0 F100\n", 1, "U+00A0) outside a comment"),
 ])
 def test_hostile_text_is_refused_with_its_line(text, line, fragment):
     with pytest.raises(GCodeError) as caught:

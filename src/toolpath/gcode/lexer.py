@@ -83,6 +83,10 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
         return Block(words=(), percent=True)
     deleted = stripped.startswith("/")
     body = _strip_comments(stripped[1:] if deleted else stripped, source, lineno)
+    if not body.isascii():  # Python's digits and blanks include Arabic-Indic digits and a no-break space
+        column, ch = next((k, c) for k, c in enumerate(body) if not c.isascii())
+        raise GCodeError(source, lineno, f"character {ch!r} (U+{ord(ch):04X}) outside a comment: a control reads "
+                                         "a line's words in ASCII only")
     words: list[Word] = []
     assignments: list[tuple[int | str, float]] = []
     i, n = 0, len(body)
@@ -103,6 +107,9 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
             raise GCodeError(source, lineno, "O-word control flow (subroutines, loops) is not supported")
         if not ch.isalpha():
             raise GCodeError(source, lineno, f"unexpected character {ch!r}")
+        if upper == "E" and words and body[i - 1 : i].isdigit() and _NUMBER.match(body, i + 1) is not None:
+            raise GCodeError(source, lineno, f"{words[-1].letter}{words[-1].text}{body[i:match_end(body, i + 1)]}: "
+                                             "exponent notation is not G-code (a number is digits with one '.')")
         if upper in _UNSUPPORTED_AXES:
             raise GCodeError(source, lineno, f"axis word {upper} is not supported (XYZ milling only)")
         if upper not in _KNOWN_LETTERS:
@@ -128,6 +135,12 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
         words.append(_checked(Word(upper, text, float(text)), source, lineno))
         i = match.end()
     return Block(words=tuple(words), block_delete=deleted, assignments=tuple(assignments))
+
+
+def match_end(body: str, pos: int) -> int:
+    """Where the number starting at ``pos`` ends (``pos`` if none does)."""
+    match = _NUMBER.match(body, pos)
+    return match.end() if match else pos
 
 
 def _checked(word: Word, source: str, lineno: int) -> Word:
