@@ -22,7 +22,8 @@ the chord tolerance), a program of at most 20 million points (:data:`MAX_POINTS`
 whole numbers 0-199, G words have one decimal at most, an arc's P is a whole number >= 1.
 
 Rejected with a :class:`GCodeError` naming ``file:line``: G18/G19, O-words,
-G5/G5.1 splines, cutter compensation (G41/G42), canned cycles (G73-G89), G53
+G5/G5.1 splines, cutter compensation (G41/G42), canned cycles (G73-G89), G53, probing, homing,
+M98 / M99 (each read past instead with ``ReaderOptions.pass_through``: :mod:`toolpath.gcode.passing`)
 and every malformed word.
 """
 
@@ -38,6 +39,7 @@ from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
 from toolpath.gcode.nurbs import NurbsBlock, NurbsMotion
+from toolpath.gcode.passing import PassThrough
 from toolpath.gcode.program import MM_PER_INCH, Motion, StateTable
 from toolpath.gcode.scanner import Scan
 
@@ -53,19 +55,32 @@ class ReaderOptions:
     chord_tolerance : max sagitta (mm) of the chords that replace an arc.
     initial_motion : motion mode before any G word (0 = rapid, as Grbl and TinyG power up).
     block_delete : True honours ``/`` (skips those lines), as with the switch on.
+    pass_through : what the reader does not follow (other planes' arcs, canned cycles, cutter compensation,
+        probing, homing, G53, O-word control flow, M98 / M99) is read past instead of refused
+        (:mod:`toolpath.gcode.passing`): such a line emits no point (an arc of another plane or a G5 spline
+        a rapid-kind point at its end, which breaks a feed run there), and the rows after it are
+        ``blind`` in the :class:`~toolpath.gcode.program.StateTable` until the reader knows X and Y again.
+    dialect : ``linuxcnc`` (default), ``fanuc`` (an ``O1234`` line is a program number, an axis word
+        without a decimal point is refused: on a control without decimal-point input it counts least
+        increments) or ``grbl``.
     """
 
     chord_tolerance: float = 0.001
     initial_motion: int = 0
     block_delete: bool = False
+    pass_through: bool = False
+    dialect: str = "linuxcnc"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.chord_tolerance, int | float) and 0 < self.chord_tolerance < math.inf):
             raise ValueError(f"chord_tolerance must be a number > 0 (mm), not {self.chord_tolerance!r}")
         if self.initial_motion not in (0, 1):
             raise ValueError(f"initial_motion must be 0 (rapid) or 1 (feed), not {self.initial_motion!r}")
+        if self.dialect not in DIALECTS:
+            raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, not {self.dialect!r}")
 
 
+DIALECTS = ("linuxcnc", "fanuc", "grbl")
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
 _ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
 _REJECTED_G = {
@@ -78,7 +93,7 @@ _CANNED = set(range(73, 90)) - {80}
 _UNSUPPORTED_M = {98: "subprogram calls (M98) are not supported", 99: "M99 (subprogram return) is not supported"}
 
 
-class Interpreter(NurbsMotion):
+class Interpreter(NurbsMotion, PassThrough):
     """Modal state machine over the blocks of one program."""
 
     def __init__(self, source: str, options: ReaderOptions) -> None:
@@ -104,9 +119,12 @@ class Interpreter(NurbsMotion):
         self.kinds: list[np.ndarray] = []
         self.point_lines: list[np.ndarray] = []
         self.total = 0
+        self.init_passing()
 
     def record(self, table: StateTable, row: int) -> None:
-        table.put(row, self.motion, self.absolute, self.inch, self.pos, self.offset, self.feed)
+        blind = self.blind()
+        table.put(row, self.motion, self.absolute, self.inch, self.pos, self.offset, self.feed, blind, self.special(),
+                  self.why if blind else "")
 
     def fail(self, lineno: int, message: str) -> GCodeError:
         return GCodeError(self.src, lineno, message)
@@ -128,6 +146,13 @@ class Interpreter(NurbsMotion):
                 others.append(code)
             elif code == 5.3:
                 raise self.fail(lineno, "G5.3 without a G5.2 block to end")
+            elif self.opt.pass_through and (kind := self.pass_codes(code, major)) is not None:
+                if kind == "motion":
+                    if motion is not None:
+                        raise self.fail(lineno, "two motion G words on one line")
+                    motion = major
+                else:
+                    others.append(code)
             elif major in _REJECTED_G:
                 raise self.fail(lineno, _REJECTED_G[major])
             elif code == major and major in _CANNED:
@@ -141,13 +166,14 @@ class Interpreter(NurbsMotion):
         return motion, others
 
     def run_block(self, block: Block, lineno: int) -> None:
+        self.opaque = False
         if block.percent:
             # a leading '%' opens the program, any later one ends it (LinuxCNC, Fanuc)
             self.ended = self.ended or self.started
             self.started = True
             return
         self.started = self.started or bool(block.words or block.assignments)
-        if self.ended or (block.block_delete and self.opt.block_delete):
+        if self.ended or self.stopped or (block.block_delete and self.opt.block_delete):
             return
         for key, value in block.assignments:  # after every value on the line was read with the old ones
             self.params.set(key, value)
@@ -167,6 +193,8 @@ class Interpreter(NurbsMotion):
                 raise self.fail(lineno, f"word {w.letter} appears twice on one line")
             seen.add(w.letter)
         words = list(block.words)
+        if self.opt.dialect == "fanuc":
+            self.check_decimal_points(words, lineno)
         values = {w.letter: w.value for w in words if w.letter not in "GM"}
         motion, others = self._g_codes(words, lineno)
         for w in words:
@@ -174,6 +202,9 @@ class Interpreter(NurbsMotion):
                 if w.value != int(w.value) or not 0 <= w.value <= 199:
                     raise self.fail(lineno, f"M{w.text} is not an M-code (a whole number 0-199)")
                 code = int(w.value)
+                if code in _UNSUPPORTED_M and self.opt.pass_through:
+                    self.stop_following(lineno, f"M{code} (subprogram {'call' if code == 98 else 'return'})")
+                    return
                 if code in _UNSUPPORTED_M:
                     raise self.fail(lineno, _UNSUPPORTED_M[code])
                 if code in (2, 30):
@@ -198,6 +229,8 @@ class Interpreter(NurbsMotion):
                 self.motion = None
         if "F" in values:
             self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
+        if self.opt.pass_through and self.read_past(motion, others, values, lineno):
+            return
         if 6.2 in others:
             self._open_nurbs(motion, values, lineno)
             return
@@ -206,14 +239,19 @@ class Interpreter(NurbsMotion):
             return
         if 92 in others or 92.1 in others or 92.2 in others:
             self._set_offset(others, values)
+            if 92 in others:
+                self.offset_set(values)
             return
         for code, first in ((28, 5161), (30, 5181)):
             if code + 0.1 in others:  # G28.1 / G30.1: remember where the tool is
                 for i in range(3):
                     self.params.set(first + i, float(self.pos[i]))
+                self.stored[code] = not self.unknown
                 return
             if code in others:
                 self._home(values, first, lineno)
+                if self.opt.pass_through:
+                    self.homed(code, [a for a in "XYZ" if a in values] or "XYZ", lineno)
                 return
         if motion is not None:
             self.motion = motion
@@ -268,6 +306,7 @@ class Interpreter(NurbsMotion):
         else:
             self._arc(target, values, lineno)
         self.pos = target
+        self.moved(values)
 
     def _arc(self, target: np.ndarray, values: dict[str, float], lineno: int) -> None:
         clockwise = self.motion == 2
@@ -361,6 +400,7 @@ class Interpreter(NurbsMotion):
         table.motion[rows], table.position[rows], table.feed[rows] = motion, position.T, feed
         table.absolute[rows], table.inch[rows] = self.absolute, self.inch
         table.offset_id[rows] = table.offset_index(self.offset)
+        table.special[rows] = self.special()  # only a plane other than XY: plain lines never run while stepping
         self.pos = position[:, -1].copy()
         self.motion = None if motion[-1] < 0 else int(motion[-1])
         self.feed = None if np.isnan(feed[-1]) else float(feed[-1])

@@ -38,7 +38,15 @@ class StateTable(Sequence):
     ``motion`` is -1 where no motion mode is in effect (after G80), ``feed`` NaN before any F word;
     ``offset_id`` indexes ``offsets``, the G92 offsets the program used (they change rarely).
     Indexing gives a :class:`LineState` with ``None`` for those.
+
+    ``blind`` is True after a line the reader passed through without following it (a probe, a canned
+    cycle, cutter compensation, an XZ arc: :class:`toolpath.gcode.interpreter.ReaderOptions`'s
+    ``pass_through``) and while the X or Y the controller stands at is unknown to the reader after one;
+    ``reason_id`` indexes ``reasons``, the construct that made it so (0: none).  ``special`` is True where
+    the reader's state holds more than these columns (a plane other than XY, compensation, a cycle).
     """
+
+    COLUMNS = ("motion", "absolute", "inch", "position", "offset_id", "feed", "blind", "special", "reason_id")
 
     def __init__(self, rows: int) -> None:
         self.motion = np.full(rows, -1, np.int8)
@@ -48,6 +56,10 @@ class StateTable(Sequence):
         self.offset_id = np.zeros(rows, np.int32)
         self.offsets: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]
         self.feed = np.full(rows, np.nan)
+        self.blind = np.zeros(rows, bool)
+        self.special = np.zeros(rows, bool)
+        self.reason_id = np.zeros(rows, np.int32)
+        self.reasons: list[str] = [""]
 
     def __len__(self) -> int:
         return len(self.motion)
@@ -71,33 +83,46 @@ class StateTable(Sequence):
             self.offsets.append(key)
         return len(self.offsets) - 1
 
-    def put(self, row: int, motion: int | None, absolute: bool, inch: bool, position, offset, feed) -> None:
+    def put(self, row: int, motion: int | None, absolute: bool, inch: bool, position, offset, feed,
+            blind: bool = False, special: bool = False, reason: str = "") -> None:
         self.motion[row] = -1 if motion is None else motion
         self.absolute[row], self.inch[row] = absolute, inch
         self.position[row] = position
         self.offset_id[row] = self.offset_index(offset)
         self.feed[row] = np.nan if feed is None else feed
+        self.blind[row], self.special[row] = blind, special
+        if reason and reason != self.reasons[-1]:
+            self.reasons.append(reason)
+        self.reason_id[row] = len(self.reasons) - 1 if reason else 0
+
+    def reason(self, row: int) -> str:
+        """Why the reader does not follow the controller at ``row`` (empty where it does)."""
+        return self.reasons[int(self.reason_id[row])]
 
     def rows(self, first: int, stop: int) -> StateTable:
         """Rows ``first .. stop - 1`` as a table of their own."""
         out = StateTable(0)
-        for name in ("motion", "absolute", "inch", "position", "offset_id", "feed"):
+        for name in self.COLUMNS:
             setattr(out, name, getattr(self, name)[first:stop])
-        out.offsets = self.offsets
+        out.offsets, out.reasons = self.offsets, self.reasons
         return out
 
     def then(self, other: StateTable) -> StateTable:
         """This table and ``other``'s rows after its first (which repeats this one's last)."""
         out = StateTable(0)
-        for name in ("motion", "absolute", "inch", "position", "feed"):
+        for name in ("motion", "absolute", "inch", "position", "feed", "blind", "special"):
             setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)[1:]]))
         out.offsets = self.offsets + other.offsets
         out.offset_id = np.concatenate([self.offset_id, other.offset_id[1:] + len(self.offsets)]).astype(np.int32)
+        out.reasons = self.reasons + other.reasons[1:]
+        shifted = np.where(other.reason_id[1:] > 0, other.reason_id[1:] + len(self.reasons) - 1, 0)
+        out.reason_id = np.concatenate([self.reason_id, shifted]).astype(np.int32)
         return out
 
     def fill(self, first: int, stop: int, row: int) -> None:
         """Rows ``first .. stop - 1`` become copies of row ``row``."""
-        for column in (self.motion, self.absolute, self.inch, self.position, self.offset_id, self.feed):
+        for name in self.COLUMNS:
+            column = getattr(self, name)
             column[first:stop] = column[row]
 
 

@@ -10,6 +10,7 @@ name the file's line.
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -18,11 +19,14 @@ import numpy as np
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.interpreter import Interpreter, ReaderOptions
 from toolpath.gcode.lexer import tokenize
+from toolpath.gcode.passing import integer_word_in
 from toolpath.gcode.program import Lines, Program, StateTable
 from toolpath.gcode.scanner import scan
 from toolpath.gcode.text import MAX_LINE_LENGTH
 
 _UNITS = {frozenset(): "mm (no unit word)", frozenset({"mm"}): "mm", frozenset({"inch"}): "inch"}
+_O_WORD = re.compile(r"\s*(?:/\s*)?(?:[nN]\s*\d+\s*)?[oO]")  # an O-word line (a number or control flow)
+_COMMENTS = re.compile(r"\([^)]*\)|;.*")
 
 
 class Reading:
@@ -41,6 +45,7 @@ class Reading:
         interp.params = copy.deepcopy(self.interp.params)
         interp.units_seen = set(self.interp.units_seen)
         interp.pos, interp.offset = self.interp.pos.copy(), self.interp.offset.copy()
+        interp.unknown, interp.stored = set(self.interp.unknown), dict(self.interp.stored)
         other.interp = interp
         return other
 
@@ -65,14 +70,18 @@ class Reading:
         """Lines ``first .. stop - 1`` (0-based in the text) through the interpreter, one by one."""
         interp, base, states = self.interp, self.interp.base, self.interp.table
         for index in range(first, stop):
-            if not interp.ended:
+            if not (interp.ended or interp.stopped):
                 body = interp.text[lines.starts[index]:lines.body_ends[index]]
                 lineno = base + index + 1
                 if len(body) > MAX_LINE_LENGTH:
                     raise GCodeError(self.source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
                 if lineno == 1 and body.startswith("\ufeff"):  # a UTF-8 BOM
                     body = body[1:]
-                interp.run_block(tokenize(body, self.source, lineno, interp.params), lineno)
+                if self.options.pass_through and _O_WORD.match(body) and not interp.nurbs:
+                    interp.opaque = False
+                    interp.o_line(_COMMENTS.sub(" ", body), lineno)
+                else:
+                    interp.run_block(tokenize(body, self.source, lineno, interp.params), lineno)
             interp.record(states, index + 1)
 
     def read(self, text: str, vectorise: bool = True, final: bool = True) -> Program:
@@ -91,9 +100,14 @@ class Reading:
         edges = np.flatnonzero(np.diff(plain.astype(np.int8))) + 1
         bounds = [0, *edges.tolist(), count] if count else [0]
         for first, stop in zip(bounds[:-1], bounds[1:], strict=True):
-            if interp.ended:  # past M2/M30 or the closing '%' a controller reads nothing more
+            if interp.ended or interp.stopped:  # past M2/M30 or the closing '%' a controller reads nothing more
                 states.fill(first + 1, count + 1, first)
                 break
+            while first < stop and plain[first] and interp.stepping():  # one by one until the state is plain
+                self._interpret(lines, first, first + 1)
+                first += 1
+            if first == stop:
+                continue
             if plain[first] and interp.nurbs is not None and interp.nurbs.kind == "G5.2":
                 self._interpret(lines, first, stop)  # X Y lines are control points until G5.3
                 continue
@@ -105,7 +119,10 @@ class Reading:
                 if interp.ended:
                     states.fill(first + 1, count + 1, first)
                     break
-            if first < stop and plain[first]:
+            if first < stop and plain[first] and not (interp.ended or interp.stopped):
+                if self.options.dialect == "fanuc" and (found := integer_word_in(
+                        text[lines.starts[first]:lines.starts[stop]])) is not None:
+                    raise GCodeError(self.source, base + first + found[0] + 1, found[1])
                 interp.run_plain(lines, first, stop, states)
             elif first < stop:
                 self._interpret(lines, first, stop)

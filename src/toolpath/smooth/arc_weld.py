@@ -118,11 +118,13 @@ def _bare(raw: str) -> bool:
 
 def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
     """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are consecutive plain G1
-    lines in absolute mode, with no block delete or comment, an F word only on the first, and (``stable``)
-    where the tool stands after ``L(i)..L(e)`` the same with the block-delete switch on or off:
+    lines in absolute mode, with no block delete or comment, an F word only on the first, none read past
+    blind (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands after ``L(i)..L(e)`` the
+    same with the block-delete switch on or off:
     (xy, lines, i, e)."""
     movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
     stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
+    stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
     out = []
     for xy, lines in feed_runs(program):
         ok = np.zeros(len(lines), bool)

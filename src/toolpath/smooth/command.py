@@ -75,6 +75,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--units", choices=("mm", "inch"),
                    help="the units the control runs a program in that sets none (no G20 / G21): such a program is "
                         "refused without it (a control left in the other units would run every move 25.4x off)")
+    p.add_argument("--dialect", choices=("linuxcnc", "fanuc", "grbl"), default="linuxcnc",
+                   help="how the control reads what dialects disagree on (default linuxcnc): fanuc (Fanuc, Haas) "
+                        "takes an O1234 line as a program number and refuses axis words without a decimal point "
+                        "(its X4 counts least increments)")
     p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
     p.add_argument("--arcs", action="store_true",
                    help="also replace runs of G1 lines by one G2/G3 where an arc lies within the tolerance")
@@ -217,7 +221,7 @@ def _progress(items: list) -> list:
 
 
 def run(args: argparse.Namespace) -> dict:
-    from toolpath.gcode import GCodeError
+    from toolpath.gcode import GCodeError, ReaderOptions
     from toolpath.smooth.outputs import atomic
     from toolpath.smooth.report import summary, write_plot, write_report
     from toolpath.smooth.rewrite import RewriteOptions
@@ -237,7 +241,10 @@ def run(args: argparse.Namespace) -> dict:
     with atomic(outputs.program) as out:  # renamed into place last, when every other file is written
         try:
             units = None
-            for part in smooth_parts(args.input, predict, options, progress=_progress, units=args.units):
+            # what the tool does not smooth (other planes' arcs, cycles, compensation, probing, O-words) is
+            # read past and copied through as written (toolpath.gcode.passing)
+            reading = ReaderOptions(pass_through=True, dialect=args.dialect)
+            for part in smooth_parts(args.input, predict, options, reading, progress=_progress, units=args.units):
                 units = part.program.units
                 if args.arcs:
                     _weld(part.result, part.program, args.tolerance, part.start)
@@ -267,7 +274,8 @@ def run(args: argparse.Namespace) -> dict:
 
 def _weld(result, program, tolerance: float, start) -> None:
     """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`)."""
-    from toolpath.gcode import ReaderOptions
+    from dataclasses import replace
+
     from toolpath.labels.windows import feed_runs
     from toolpath.smooth.arc_weld import weld_arcs
 
@@ -275,7 +283,7 @@ def _weld(result, program, tolerance: float, start) -> None:
     text, arcs, lines, note = weld_arcs(smoothed, program, tolerance, start=start)
     result.text, result.arcs, result.arcs_note = text, arcs, note
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
-    coarse = start.with_options(ReaderOptions(chord_tolerance=BLEND_TOLERANCE))
+    coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
     result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
     result.changed_lines = sorted(set(result.changed_lines) | set(lines))
 
@@ -321,6 +329,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{args.input} -> {report['output']}: {w['total']} windows ({w['smoothed']} smoothed), "
           f"{report['lines_changed']} lines changed, largest deviation {report['largest_deviation_mm']:.4f} mm "
           f"(tolerance {args.tolerance} mm)" + (f", {report['arcs']['fitted']} arcs replacing "
-                                                f"{report['arcs']['lines_replaced']} G1 lines" if args.arcs else ""),
-          file=sys.stderr)
+                                                f"{report['arcs']['lines_replaced']} G1 lines" if args.arcs else "")
+          + (f"; passed through as written: {'; '.join(report['passed_through'][:3])}"
+             + (f" and {len(report['passed_through']) - 3} more" if len(report["passed_through"]) > 3 else "")
+             if report["passed_through"] else ""), file=sys.stderr)
     return 0

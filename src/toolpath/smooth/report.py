@@ -38,9 +38,13 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
         # or a G6.2 block sit at a part's end, the windows of the run open there restart (optimize.stream)
         "parts": {"count": result.parts,
                   "windows_restart_at_lines": list(result.restarts)},
+        # every construct the reader read past (toolpath.gcode.passing), copied through as written
+        "passed_through": list(getattr(result, "passed", [])),
         "largest_deviation_mm": max([w.deviation_mm for w in windows] + [a.deviation_mm for a in arcs], default=0.0),
         **({"arcs": {"fitted": len(arcs), "lines_replaced": sum(a.lines_replaced for a in arcs),
-                     "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
+                     # every construct the reader read past (toolpath.gcode.passing), copied through as written
+        "passed_through": list(getattr(result, "passed", [])),
+        "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
                      "not_fitted_because": result.arcs_note, "rows": [asdict(a) for a in arcs]}}
            if getattr(args, "arcs", False) else {}),
         "machining_time_s": {"before": before, "after": after,

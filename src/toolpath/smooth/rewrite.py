@@ -244,6 +244,10 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             if switched[int(lines[e])] - (switched[int(lines[s]) - 1] if lines[s] > 0 else 0) > 0:
                 record.status = "kept: block delete (/) in the window: the path differs with the switch on"
                 continue
+            if (blind := np.flatnonzero(program.states.blind[int(lines[s]):int(lines[e]) + 1])).size:
+                # the reader read past a construct it does not follow (toolpath.gcode.passing): the lines stay
+                record.status = f"kept: {program.states.reason(int(lines[s]) + int(blind[-1]))}, passed through as written"
+                continue
             stretches, reason = _stretches(lines, movable, quiet, program, s, e)
             if not stretches:
                 record.status = f"kept: {reason}"

@@ -72,7 +72,8 @@ def _cut(program: Program, window: int) -> tuple[int, bool]:
         k -= window
     line = int(lines[max(k, 0)])
     rest = program.lines.text[program.lines.starts[line - 1]:]
-    if _STATEFUL.search(rest):
+    # a state the table's rows do not hold (read past, another plane) cannot be resumed from a row either
+    if _STATEFUL.search(rest) or program.states.special[line - 1:].any():
         return count, True
     return line - 1, False
 
@@ -140,6 +141,7 @@ class Combined:
         self.runs_before: list[np.ndarray] = []
         self.runs_after: list[np.ndarray] = []
         self.restarts: list[int] = []  # lines where windows restart because the lines before could not wait
+        self.passed: list[str] = []  # what the reader read past, in order (toolpath.gcode.passing)
 
     @property
     def changed_lines(self) -> np.ndarray:
@@ -153,6 +155,10 @@ class Combined:
         for w in result.windows:
             w.first_line, w.last_line, w.run = w.first_line + shift, w.last_line + shift, w.run + self.runs
         self.windows.extend(result.windows)
+        states = part.program.states
+        for reason in (states.reasons[k] for k in np.unique(states.reason_id[states.blind]) if k):
+            if reason not in self.passed:
+                self.passed.append(reason)
         if result.arcs is not None:
             self.arcs = (self.arcs or []) + [replace(a, first_line=a.first_line + shift, last_line=a.last_line + shift)
                                              for a in result.arcs]

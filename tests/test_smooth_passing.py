@@ -1,0 +1,107 @@
+"""``toolpath smooth`` passes through what it does not smooth (issue 42): other planes' arcs, splines, canned
+cycles, cutter compensation, probing, homing, machine coordinates, O-words, M98.  Each such line is
+copied byte for byte, windows where the controller's X or Y is unknown to the reader are kept with
+their reason, and smoothing resumes where the position is known again (never after control flow)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from toolpath.gcode import ReaderOptions, read_text
+from toolpath.geometry.hausdorff import hausdorff
+from toolpath.labels.windows import feed_runs
+from toolpath.smooth.command import main
+
+
+def rough(start: float, n: int, seed: int) -> list[str]:
+    rng = np.random.default_rng(seed)
+    return [f"G1 X{start + 0.1 * k:.3f} Y{0.04 * rng.standard_normal():.3f}" for k in range(1, n)]
+
+
+def program(construct: list[str]) -> tuple[str, range, range]:
+    """A rough cut, the construct, a rough cut again: the text and the 0-based line ranges of the cuts."""
+    head = ["G21 G90 G17", "G0 X0 Y0 Z1", "G1 Z-1 F300"]
+    first = rough(0.0, 160, 1)
+    second = rough(30.0, 160, 2)
+    lines = head + first + construct + [RESUME] + second + ["M30"]
+    a = range(len(head), len(head) + len(first))
+    b = range(len(head) + len(first) + len(construct) + 1, len(lines) - 1)
+    return "\n".join(lines) + "\n", a, b
+
+
+RESUME = "G1 X30.000 Y0.000"  # X and Y in absolute mode: the reader knows the position again
+CASES = {  # construct lines, the reason a window holding it gives, whether the second cut is smoothed
+    "xz arc": (["G18 G2 X17.000 Z-1.5 I0.5 K0", "G17"], "XZ plane", True),
+    "spline": (["G5 X25.000 Y0.500 I1 J1 P1 Q-1"], "G5 spline", True),
+    "canned cycle": (["G81 X20.000 Y5.000 Z-2 R1 F100", "X22.000", "G80"], "canned cycle G81", True),
+    "cutter compensation": (["G41 D1", "G1 X17.000 Y1.000", "G1 X20.000 Y1.000", "G40"], "cutter compensation G41",
+                            True),
+    "probing": (["G38.2 Z-5 F50", "G0 Z1"], "probing", True),
+    "homing": (["G28.2 X0 Y0"], "homing", True),
+    "stored home unknown": (["G28 X20 Y0"], "never stored", True),
+    "machine coordinates": (["G53 G0 Z0"], "G53", True),
+    "o-word": (["o100 call"], "O-word control flow", False),
+    "m98": (["M98 P1000"], "M98", False),
+}
+
+
+def _changed(before: list[str], after: list[str], span: range) -> int:
+    return sum(before[k] != after[k] for k in span)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_a_construct_the_tool_does_not_smooth_is_passed_through(tmp_path, capsys, name):
+    construct, reason, resumes = CASES[name]
+    text, a, b = program(construct)
+    source = tmp_path / "p.nc"
+    source.write_text(text)
+    code = main([str(source), "-o", str(tmp_path / "out.nc"), "--report", str(tmp_path / "r.json"),
+                 "--method", "mean"])
+    assert code == 0, capsys.readouterr().err
+    before, after = text.splitlines(), (tmp_path / "out.nc").read_text().splitlines()
+    assert len(after) == len(before)
+    assert [after[k] for k in range(a.stop, a.stop + len(construct))] == construct  # byte for byte
+    assert _changed(before, after, a) > 0
+    assert (_changed(before, after, b) > 0) == resumes
+    assert any(reason in passed for passed in json.loads((tmp_path / "r.json").read_text())["passed_through"])
+    # the read paths, cut by cut, within the tolerance both ways
+    options = ReaderOptions(pass_through=True)
+    for old, new in zip(feed_runs(read_text(text, options=options)),
+                        feed_runs(read_text("\n".join(after) + "\n", options=options)), strict=True):
+        assert float(hausdorff(old[0], new[0])) <= 0.01 + 1e-9
+
+
+@pytest.mark.parametrize("text, dialect, said", [
+    ("O1006\nG21 G90\nG1 X1. Y0. F300.\nM30\n", "linuxcnc", "pass --dialect fanuc"),
+    ("O1006\nG21 G90\nG1 X4 Y0. F300.\nM30\n", "fanuc", "X4: an axis word without a decimal point"),
+])
+def test_dialects_disagree_on_program_numbers_and_integer_words(tmp_path, capsys, text, dialect, said):
+    source = tmp_path / "p.nc"
+    source.write_text(text)
+    assert main([str(source), "-o", str(tmp_path / "out.nc"), "--dialect", dialect]) == 1
+    assert said in capsys.readouterr().err and not (tmp_path / "out.nc").exists()
+
+
+def test_a_fanuc_program_number_and_whole_zeros_are_read_in_the_fanuc_dialect(tmp_path):
+    source = tmp_path / "p.nc"
+    source.write_text("O1006 (PART)\nG21 G90\nG0 X0 Y0\nG1 X4. Y0. F300.\nM30\n")
+    assert main([str(source), "-o", str(tmp_path / "out.nc"), "--dialect", "fanuc"]) == 0
+    assert (tmp_path / "out.nc").read_bytes() == source.read_bytes()
+
+
+@pytest.mark.parametrize("name", ["canned cycle", "cutter compensation", "probing", "homing"])
+def test_a_window_holding_such_a_line_is_kept_with_its_reason(tmp_path, name):
+    construct, reason, _ = CASES[name]
+    construct = [line for line in construct if not line.startswith("G0")]  # a rapid would end the feed run
+    head = ["G21 G90 G17", "G0 X0 Y0 Z1", "G1 Z-1 F300"]
+    text = "\n".join(head + rough(0.0, 30, 1) + construct + [RESUME] + rough(30.0, 60, 2) + ["M30"]) + "\n"
+    source = tmp_path / "p.nc"
+    source.write_text(text)
+    assert main([str(source), "-o", str(tmp_path / "out.nc"), "--report", str(tmp_path / "r.json"),
+                 "--method", "mean"]) == 0
+    rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
+    kept = [row for row in rows if str(row.get("status", "")).startswith("kept")]
+    assert kept and all(reason in row["status"] for row in kept), rows
