@@ -304,3 +304,17 @@ def test_an_option_whose_package_is_missing_names_the_extra_and_writes_nothing(t
     assert cli.main(["in.nc", "-o", "out.nc", *options]) == 2
     assert f"pip install 'toolpath-lab[{extra}]'" in capsys.readouterr().err
     assert not (tmp_path / "out.nc").exists()
+
+
+def test_a_window_that_would_not_gain_is_kept_as_it_was_and_said_so():
+    """Every window called rough on a straight, evenly spaced cut: the mean filter cannot lower a
+    LocalCurvature of zero, so no window is 'smoothed' and no line changes (issue 43)."""
+    text = noisy_program(amplitude=0.0, extras=False)
+    program = read_text(text, "straight.nc")
+    options = RewriteOptions(tolerance=0.01, smoothing=cli.SMOOTHING, method="mean_filter", mapping=cli.DISPATCH)
+    result = smooth_program(program, lambda X: np.full(len(X), 2), options)
+    assert result.windows and all(w.status.startswith("kept: no gain") for w in result.windows)
+    assert result.text == text and not result.changed_lines
+    # and on a rough cut, every window called smoothed is one whose LocalCurvature fell
+    _, rough = _smooth(noisy_program())
+    assert all(w.curvature_after < w.curvature_before for w in rough.windows if w.status == "smoothed")

@@ -5,9 +5,12 @@ reason; the whole path holds the tolerance with the block-delete switch off and 
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from test_smooth import _run
 from toolpath.gcode import ReaderOptions, read_text
@@ -132,3 +135,78 @@ def test_a_program_without_units_is_smoothed_only_in_the_units_it_is_given(tmp_p
     assert (tmp_path / "g20_out.nc").read_text() == "G20\n" + (tmp_path / "in.nc").read_text()
     assert _run(program, "-o", "mm.nc", "--units", "mm", "--method", "mean", cwd=tmp_path).returncode == 0
     assert (tmp_path / "mm.nc").read_text() != (tmp_path / "in.nc").read_text()  # 25.4x the tolerance apart
+
+
+# --- the whole path, as an independent controller model reads it, at both block-delete states ----------
+
+_WORD = re.compile(r"([A-Za-z])\s*([+-]?(?:\d+\.?\d*|\.\d+))")
+
+
+def controller_path(text: str, block_delete: bool) -> np.ndarray:
+    """Every XY position the tool stands at, as a minimal RS-274 control reads ``text`` (G0 / G1, G20 / G21,
+    G90 / G91, modal words, ``( )`` and ``;`` comments, N words, block delete with the switch on or off):
+    written apart from the package's reader on purpose."""
+    x = y = 0.0
+    inch, absolute, path = False, True, [(0.0, 0.0)]
+    for raw in text.splitlines():
+        line = re.sub(r"\([^)]*\)|;.*", " ", raw).strip()
+        if line.startswith("/"):
+            if block_delete:
+                continue
+            line = line[1:]
+        words = [(letter.upper(), float(number)) for letter, number in _WORD.findall(line)]
+        codes = {v for letter, v in words if letter == "G"}
+        inch = True if 20 in codes else False if 21 in codes else inch
+        absolute = True if 90 in codes else False if 91 in codes else absolute
+        scale = 25.4 if inch else 1.0
+        moved = False
+        for letter, value in words:
+            if letter in "XY":
+                moved = True
+                if letter == "X":
+                    x = value * scale if absolute else x + value * scale
+                else:
+                    y = value * scale if absolute else y + value * scale
+        if moved:
+            path.append((x, y))
+    return np.array(path)
+
+
+@st.composite
+def controller_programs(draw) -> str:
+    """A rough cut whose lines mix full and modal moves, block-deleted moves, N words, comments and unit
+    switches (each number written in the units then in force)."""
+    rng = np.random.default_rng(draw(st.integers(0, 10_000)))
+    inch = draw(st.booleans())
+    lines = [f"{'G20' if inch else 'G21'} G90 G17", "G0 X0 Y0", "G1 F300"]
+    for k in range(1, draw(st.integers(60, 180))):
+        x, y = 0.1 * k, 0.03 * rng.standard_normal()
+        if draw(st.integers(0, 30)) == 0:
+            inch = not inch
+            lines.append("G20" if inch else "G21")
+        unit, digits = (25.4, 5) if inch else (1.0, 3)
+        kind = draw(st.sampled_from(["full", "full", "full", "modal", "x only", "deleted", "numbered", "comment"]))
+        xs, ys = f"X{x / unit:.{digits}f}", f"Y{y / unit:.{digits}f}"
+        lines.append({"full": f"G1 {xs} {ys}", "modal": f"{xs} {ys}", "x only": f"G1 {xs}",
+                      "deleted": f"/G1 {xs} {ys}", "numbered": f"N{10 * k} G1 {xs} {ys}",
+                      "comment": f"G1 {xs} {ys} (pass {k})"}[kind])
+    return "\n".join(lines + ["M30"]) + "\n"
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(text=controller_programs())
+def test_property_the_whole_path_holds_the_tolerance_at_both_switch_states(text):
+    import tempfile
+    from pathlib import Path
+
+    from toolpath.smooth.command import main
+
+    with tempfile.TemporaryDirectory() as folder:
+        source = Path(folder) / "p.nc"
+        source.write_text(text)
+        assert main([str(source), "-o", str(Path(folder) / "out.nc"), "--method", "mean"]) == 0
+        after = (Path(folder) / "out.nc").read_text()
+    for switch in (False, True):
+        before_path, after_path = controller_path(text, switch), controller_path(after, switch)
+        assert len(before_path) == len(after_path)
+        assert float(hausdorff(before_path, after_path)) <= 0.01 + 1e-9, f"block delete {'on' if switch else 'off'}"

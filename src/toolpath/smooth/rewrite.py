@@ -276,8 +276,20 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
             moved[k] = result.points[1:-1]
             record.status, record.lines_changed = "smoothed", record.lines_changed + int(b - a - 1)
     edits = _edits(program, flat, np.concatenate(moved) if moved else np.zeros((0, 2)), decimals)
-    text = program.lines.joined(edits)
-    return _verify(program, text, runs, records, jobs, edits, options, read_options, start)
+    result = _verify(program, program.lines.joined(edits), runs, records, jobs, edits, options, read_options, start)
+    # a window whose LocalCurvature did not fall (as written, rounding included) is kept as it was
+    no_gain = {id(r) for r in records if r.status == "smoothed" and r.curvature_after >= r.curvature_before}
+    if not no_gain:
+        return result
+    keep = [k for k, job in enumerate(jobs) if id(job[3]) not in no_gain]
+    for record in records:
+        if id(record) in no_gain:
+            record.status, record.lines_changed = "kept: no gain (its LocalCurvature would not fall)", 0
+    mask = np.repeat(np.isin(np.arange(len(jobs)), keep), [len(lines) for lines in moved_lines])
+    points = np.concatenate([moved[k] for k in keep]) if keep else np.zeros((0, 2))
+    edits = _edits(program, flat[mask], points, decimals[mask])
+    return _verify(program, program.lines.joined(edits), runs, records, [jobs[k] for k in keep], edits, options,
+                   read_options, start)
 
 
 MOST_AT_ONCE = 32  # windows smoothed side by side at most (a few MB of NACOA's arrays)
