@@ -89,7 +89,7 @@ def _matching_by_hand(candidate: np.ndarray, window: np.ndarray, tolerance: floa
             return False
         feet.append(best[1])
     feet.append(arc[-1])
-    if any(b < a for a, b in zip(feet, feet[1:])):
+    if any(b < a for a, b in zip(feet[:-1], feet[1:], strict=True)):
         return False
     for i in range(n - 1):
         a, u = candidate[i], candidate[i + 1] - candidate[i]

@@ -29,9 +29,6 @@ and every malformed word.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from toolpath.gcode.arcs import RADIUS_TOLERANCE, centre_arc_problem, centre_from_radius, discretise_arc
@@ -39,6 +36,7 @@ from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import Parameters
 from toolpath.gcode.lexer import Block, Word, tokenize
 from toolpath.gcode.nurbs import NurbsBlock, NurbsMotion
+from toolpath.gcode.options import DIALECTS, ReaderOptions  # noqa: F401 - read from here too
 from toolpath.gcode.passing import PassThrough
 from toolpath.gcode.program import MM_PER_INCH, Motion, StateTable
 from toolpath.gcode.scanner import Scan
@@ -48,39 +46,6 @@ from toolpath.gcode.scanner import Scan
 MAX_POINTS = 20_000_000
 
 
-@dataclass(frozen=True)
-class ReaderOptions:
-    """How to read; every field is in ``conf/gcode/``.
-
-    chord_tolerance : max sagitta (mm) of the chords that replace an arc.
-    initial_motion : motion mode before any G word (0 = rapid, as Grbl and TinyG power up).
-    block_delete : True honours ``/`` (skips those lines), as with the switch on.
-    pass_through : what the reader does not follow (other planes' arcs, canned cycles, cutter compensation,
-        probing, homing, G53, O-word control flow, M98 / M99) is read past instead of refused
-        (:mod:`toolpath.gcode.passing`): such a line emits no point (an arc of another plane or a G5 spline
-        a rapid-kind point at its end, which breaks a feed run there), and the rows after it are
-        ``blind`` in the :class:`~toolpath.gcode.program.StateTable` until the reader knows X and Y again.
-    dialect : ``linuxcnc`` (default), ``fanuc`` (an ``O1234`` line is a program number, an axis word
-        without a decimal point is refused: on a control without decimal-point input it counts least
-        increments) or ``grbl``.
-    """
-
-    chord_tolerance: float = 0.001
-    initial_motion: int = 0
-    block_delete: bool = False
-    pass_through: bool = False
-    dialect: str = "linuxcnc"
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.chord_tolerance, int | float) and 0 < self.chord_tolerance < math.inf):
-            raise ValueError(f"chord_tolerance must be a number > 0 (mm), not {self.chord_tolerance!r}")
-        if self.initial_motion not in (0, 1):
-            raise ValueError(f"initial_motion must be 0 (rapid) or 1 (feed), not {self.initial_motion!r}")
-        if self.dialect not in DIALECTS:
-            raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, not {self.dialect!r}")
-
-
-DIALECTS = ("linuxcnc", "fanuc", "grbl")
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
 _ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
 _REJECTED_G = {

@@ -246,7 +246,8 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
                 continue
             if (blind := np.flatnonzero(program.states.blind[int(lines[s]):int(lines[e]) + 1])).size:
                 # the reader read past a construct it does not follow (toolpath.gcode.passing): the lines stay
-                record.status = f"kept: {program.states.reason(int(lines[s]) + int(blind[-1]))}, passed through as written"
+                why = program.states.reason(int(lines[s]) + int(blind[-1]))
+                record.status = f"kept: {why}, passed through as written"
                 continue
             stretches, reason = _stretches(lines, movable, quiet, program, s, e)
             if not stretches:
