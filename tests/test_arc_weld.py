@@ -63,7 +63,7 @@ def test_fit_arc_refuses_what_is_not_one_arc(points):
 def test_a_fine_polygon_becomes_one_arc_and_nothing_else_changes():
     text = polygon_program(180)
     program = read_text(text)
-    out, arcs, changed, note = weld_arcs(program, program, 0.01)
+    out, arcs, changed, note, _ = weld_arcs(program, program, 0.01)
     assert note is None and len(arcs) == 1 and arcs[0].lines_replaced >= 170 and not arcs[0].clockwise
     old, new = text.splitlines(), out.splitlines()
     arc_line = new[arcs[0].first_line - 1]
@@ -81,14 +81,14 @@ def test_a_coarse_polygon_keeps_its_lines():
     """36 chords on R10 sag 0.0095 mm: an arc through their ends is 0.0095 mm off them, over the budget."""
     text = polygon_program(36)
     program = read_text(text)
-    out, arcs, changed, _ = weld_arcs(program, program, 0.01)
+    out, arcs, changed, _, _ = weld_arcs(program, program, 0.01)
     assert arcs == [] and changed == [] and out == text
 
 
 def test_inch_programs_get_inch_numbers():
     text = polygon_program(180, radius=0.5, units="G20", decimals=4, tail="X-0.5 Y-0.2")
     program = read_text(text)
-    out, arcs, _, _ = weld_arcs(program, program, 0.01)
+    out, arcs, _, _, _ = weld_arcs(program, program, 0.01)
     assert len(arcs) == 1
     arc_line = out.splitlines()[arcs[0].first_line - 1]
     assert " X-0.5000 Y0.0000 I" in arc_line  # program units, the line's four decimals
@@ -98,7 +98,7 @@ def test_inch_programs_get_inch_numbers():
 def test_absolute_arc_centres_are_left_alone():
     text = polygon_program(180).replace("G21 G90 G17", "G21 G90 G90.1 G17")
     program = read_text(text)
-    out, arcs, _, note = weld_arcs(program, program, 0.01)
+    out, arcs, _, note, _ = weld_arcs(program, program, 0.01)
     assert out == text and arcs == [] and "G90.1" in note
 
 
@@ -114,7 +114,7 @@ def test_property_arcs_stay_within_the_tolerance_and_the_program_keeps_its_end(s
     lines += [f"G1 X{x:.4f} Y{y:.4f} F500" if k == 0 else f"X{x:.4f} Y{y:.4f}" for k, (x, y) in enumerate(pts[1:])]
     text = "\n".join([*lines, "M30"]) + "\n"
     program = read_text(text)
-    out, arcs, _, _ = weld_arcs(program, program, tolerance)
+    out, arcs, _, _, _ = weld_arcs(program, program, tolerance)
     assert _deviation(text, out) <= tolerance + 1e-9
     np.testing.assert_array_equal(read_text(out).points[-1], program.points[-1])
     assert all(a.deviation_mm <= tolerance for a in arcs)
@@ -139,7 +139,7 @@ def test_corpus_programs_get_arcs_within_tolerance(name, tmp_path):
 
 def _weld_text(text: str, tolerance: float = 0.01) -> str:
     program = read_text(text)
-    welded, records, _, _ = weld_arcs(program, program, tolerance)
+    welded, records, _, _, _ = weld_arcs(program, program, tolerance)
     assert records, "the test program must weld at least one arc"
     return welded
 
@@ -169,3 +169,45 @@ def test_the_explicit_g1_after_an_arc_comes_after_the_lines_n_word():
         words = line.split()
         assert all(not w.upper().startswith("N") for w in words[1:]), f"an N word in mid-line: {line!r}"
     assert any(re.fullmatch(r"N\d+ G1 X\S+ Y\S+", line) for line in welded.splitlines())
+
+
+def test_an_arc_the_exact_check_rejects_is_kept_as_its_lines(monkeypatch):
+    """With the cheap bound switched off every candidate arc is written; the exact re-read check then
+    rejects those farther than the tolerance, and each is kept as its G1 lines, never the whole program
+    refused (issue 44)."""
+    import toolpath.smooth.arc_weld as arc_weld
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, math.pi, 121)
+    radius = 10.0 + rng.normal(0.0, 0.02, t.size)  # a wavy half circle: long arcs overshoot the band
+    lines = ["G21 G90 G17", "G0 X10.2 Y0", "G1 X10.000 Y0 F300"]
+    lines += [f"G1 X{r * math.cos(a):.3f} Y{r * math.sin(a):.3f}" for r, a in zip(radius[1:], t[1:], strict=True)]
+    text = "\n".join(lines + ["G1 X-10 Y-5", "M30"]) + "\n"
+    program = read_text(text)
+    monkeypatch.setattr(arc_weld, "arc_bound", lambda points, arc: 0.0)
+    out, arcs, _, _, kept_as_lines = weld_arcs(program, program, 0.01)
+    assert kept_as_lines > 0
+    assert all(a.deviation_mm <= 0.01 + 1e-9 for a in arcs)
+    assert _deviation(text, out) <= 0.01 + 1e-9
+
+
+def test_arcs_alone_with_method_none(tmp_path):
+    """`--method none --arcs` does ArcWelder's job alone: arcs, nothing smoothed; without --arcs the
+    program comes back byte for byte (issue 44)."""
+    from toolpath.smooth.command import main
+
+    source = tmp_path / "p.nc"
+    rng = np.random.default_rng(5)
+    text = polygon_program(180)
+    noisy = [line if not line.startswith("G1 X") or k < 6 else
+             re.sub(r"Y(-?[\d.]+)", lambda m: f"Y{float(m.group(1)) + rng.normal(0, 0.002):.3f}", line)
+             for k, line in enumerate(text.splitlines())]
+    source.write_text("\n".join(noisy) + "\n")
+    assert main([str(source), "-o", str(tmp_path / "same.nc"), "--method", "none"]) == 0
+    assert (tmp_path / "same.nc").read_bytes() == source.read_bytes()
+    assert main([str(source), "-o", str(tmp_path / "arcs.nc"), "--method", "none", "--arcs",
+                 "--report", str(tmp_path / "r.json")]) == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["arcs"]["fitted"] >= 1 and report["windows"]["total"] == 0
+    out = (tmp_path / "arcs.nc").read_text()
+    assert len(out.splitlines()) < len(noisy) and _deviation(source.read_text(), out) <= 0.01 + 1e-9

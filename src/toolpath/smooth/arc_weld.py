@@ -153,20 +153,22 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
               start: Reading | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
     """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
     replaced by arcs within ``tolerance`` of ``original``'s path; the arcs; the input lines changed or
-    removed; why no arc was tried (or None).  ``start``: for a part of a program, the reading its
-    output is re-read from.
+    removed; why no arc was tried (or None); how many arcs the exact check rejected and were kept as
+    their G1 lines.  ``start``: for a part of a program, the reading its output is re-read from.
 
     Raises
     ------
     GCodeError
-        When the re-read output fails the check (an internal error: nothing should be written).
+        When the re-read output moved a point outside the arcs (an internal error: nothing should be written).
     """
     if _ABSOLUTE_CENTRES.search("".join(current.lines)):
-        return "".join(current.lines), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted"
+        return "".join(current.lines), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
     chord = (read_options or ReaderOptions()).chord_tolerance
     point_of_line = {int(line): k for k, line in enumerate(original.lines_of_points)}
     edits: dict[int, str] = {}
     records: list[ArcRecord] = []
+    written: dict[int, tuple] = {}  # per arc, what wrote it
+    kept_as_lines = 0
     for xy, lines, first, last in _chains(current, switch_stable(current, read_options, start)):
         original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
         i = first
@@ -181,13 +183,22 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
                 i += 1
                 continue
             q, arc, deviation = best
+            record = ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation)
+            written[id(record)] = (xy, lines, i, q, arc)
             _write(current, xy, lines, i, q, arc, edits)
-            records.append(ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation))
+            records.append(record)
             i = q
     text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
-    if records:
-        _verify(text, current, original, records, tolerance, read_options, start)
-    return text, records, sorted(edits), None
+    while records and (failed := _verify(text, current, original, records, tolerance, read_options, start)):
+        # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
+        # (the line after an arc may be the next arc's first) and checked again
+        records = [r for r in records if r not in failed]
+        kept_as_lines += len(failed)
+        edits = {}
+        for record in records:
+            _write(current, *written[id(record)], edits)
+        text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
+    return text, records, sorted(edits), None, kept_as_lines
 
 
 def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float, chord: float):
@@ -205,6 +216,7 @@ def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: fl
 
 
 def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
+    """Write the arc over lines ``L(i+1)..L(q)`` into ``edits``."""
     first, end = int(lines[i + 1]), int(lines[q])
     raw = program.lines[first - 1]
     body = raw.rstrip("\r\n")
@@ -230,8 +242,9 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
 
 
 def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,
-            read_options: ReaderOptions | None, start: Reading | None) -> None:
-    """Re-read the output: every point outside the arcs is where it was, every arc within the tolerance."""
+            read_options: ReaderOptions | None, start: Reading | None) -> list[ArcRecord]:
+    """Re-read the output: every point outside the arcs is where it was (else GCodeError); the arcs that
+    lie farther than the tolerance from the original (each record gets its exact deviation)."""
     final = (start.snapshot() if start is not None else Reading(current.source, read_options)).read(text)
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
@@ -249,6 +262,4 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
         r.deviation_mm = float(hausdorff(original.points[a:b + 1, :2], new))
-        if r.deviation_mm > tolerance + 1e-9:
-            raise GCodeError(current.source, r.first_line, f"internal check failed: an arc lies "
-                                                           f"{r.deviation_mm:.6f} mm from the original")
+    return [r for r in records if r.deviation_mm > tolerance + 1e-9]

@@ -39,7 +39,7 @@ MACHINE = {"feed": 100.0, "period": 0.001, "chord_error": 0.001, "contour_error"
            "tangential_jerk": 50000.0, "kp": 400.0, "inertia": 0.01, "damping": 1.0}
 BLEND_TOLERANCE = 0.005
 METHODS = {"dispatch": "dispatch", "mean": "mean_filter", "mean_filter": "mean_filter", "bezier": "bezier",
-           "nacoa": "nacoa"}
+           "nacoa": "nacoa", "none": "none"}
 
 
 class UsageError(Exception):
@@ -69,7 +69,8 @@ def parser() -> argparse.ArgumentParser:
                         "a point of FP32, where OpenVINO's INT8 ConvMixer loses 33-37; reports/metrics/inference.json "
                         "names the fastest safe runtime per model)")
     p.add_argument("--method", default="dispatch", choices=sorted(METHODS),
-                   help="dispatch (category 2 mean, 3 Bezier, 4 NACOA: Sec. 5.3) or one method for all rough windows")
+                   help="dispatch (category 2 mean, 3 Bezier, 4 NACOA: Sec. 5.3), one method for all rough windows, "
+                        "or none: nothing smoothed (with --arcs: arcs alone, as ArcWelder)")
     p.add_argument("--report", type=Path, help="write a report: REPORT.json, or REPORT.html with the path drawn")
     p.add_argument("--plot", type=Path, help="draw the path before and after, rough windows marked: PLOT.png or .svg")
     p.add_argument("--units", choices=("mm", "inch"),
@@ -280,8 +281,9 @@ def _weld(result, program, tolerance: float, start) -> None:
     from toolpath.smooth.arc_weld import weld_arcs
 
     smoothed = start.snapshot().read(result.text)
-    text, arcs, lines, note = weld_arcs(smoothed, program, tolerance, start=start)
+    text, arcs, lines, note, kept_as_lines = weld_arcs(smoothed, program, tolerance, start=start)
     result.text, result.arcs, result.arcs_note = text, arcs, note
+    result.arcs_kept_as_lines = kept_as_lines
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
     coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
     result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]

@@ -45,7 +45,9 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
                      # every construct the reader read past (toolpath.gcode.passing), copied through as written
         "passed_through": list(getattr(result, "passed", [])),
         "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
-                     "not_fitted_because": result.arcs_note, "rows": [asdict(a) for a in arcs]}}
+                     "not_fitted_because": result.arcs_note,
+                     "kept_as_lines": getattr(result, "arcs_kept_as_lines", 0),  # rejected by the exact check
+                     "rows": [asdict(a) for a in arcs]}}
            if getattr(args, "arcs", False) else {}),
         "machining_time_s": {"before": before, "after": after,
                              "saved_pct": None if not before or after is None else 100.0 * (1 - after / before),

@@ -76,6 +76,7 @@ class Rewrite:
     changed_lines: list[int]
     arcs: list | None = None  # ``--arcs``: :class:`toolpath.smooth.arc_weld.ArcRecord` per arc written
     arcs_note: str | None = None  # why no arc was fitted at all, when so
+    arcs_kept_as_lines: int = 0  # arcs the exact re-read check rejected: their G1 lines were kept
 
 
 def _stretches(lines: np.ndarray, movable: np.ndarray, quiet: np.ndarray, program: Program, first: int,
@@ -213,6 +214,9 @@ def smooth_program(program: Program, classify: Callable[[np.ndarray], np.ndarray
     categories 1-4.  Raises :class:`GCodeError` when the tolerance is finer than the program's
     numbers can express.
     """
+    if options.method == "none":  # `--method none`: nothing smoothed (`--arcs` alone, ArcWelder's job)
+        runs_xy = [xy for xy, _ in feed_runs(program)]
+        return Rewrite(program.lines.joined({}), [], runs_xy, runs_xy, [])
     movable, quiet = movable_lines(program), _quiet_prefix(program)
     # a window a `/` line touches runs differently by the block-delete switch: kept whole
     switched = np.cumsum(~switch_stable(program, read_options, start))

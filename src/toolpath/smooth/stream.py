@@ -137,6 +137,7 @@ class Combined:
         self.windows: list = []
         self.arcs: list | None = None
         self.arcs_note: str | None = None
+        self.arcs_kept_as_lines = 0
         self.changed: list[np.ndarray] = []
         self.runs_before: list[np.ndarray] = []
         self.runs_after: list[np.ndarray] = []
@@ -163,6 +164,7 @@ class Combined:
             self.arcs = (self.arcs or []) + [replace(a, first_line=a.first_line + shift, last_line=a.last_line + shift)
                                              for a in result.arcs]
             self.arcs_note = self.arcs_note or result.arcs_note
+            self.arcs_kept_as_lines += result.arcs_kept_as_lines
         self.changed.append(np.asarray(result.changed_lines, np.int64) + shift)
         self.lines += len(part.program.lines)
         self.parts += 1
