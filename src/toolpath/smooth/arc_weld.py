@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -38,6 +38,8 @@ from toolpath.labels.windows import feed_runs
 from toolpath.smooth.rewrite import line_decimals, switch_stable
 
 MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
+LOOKAHEAD = 8        # growth tries this many longer arcs past the first that fails (the fit moves as it grows)
+CHECK_CHORD = 1e-4   # mm: chords of the arcs the fit and the re-read check measure (within this of the arc)
 MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
@@ -63,9 +65,10 @@ class _Arc:
     sweep: float  # signed, radians (negative: clockwise)
 
 
-def fit_arc(points: np.ndarray) -> _Arc | None:
-    """The circle through ``points[0]`` and ``points[-1]`` nearest (algebraically) to the points between,
-    when the points turn one way about it by less than a full circle; None otherwise."""
+def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None:
+    """The circle through ``points[0]`` and ``points[-1]`` nearest (algebraically) to the points between
+    (or the one about ``centre``, on their bisector), when the points turn one way about it by less than
+    a full circle; None otherwise."""
     origin = points[0]
     p = points - origin  # local coordinates: no cancellation far from the machine origin
     chord = p[-1]
@@ -79,7 +82,7 @@ def fit_arc(points: np.ndarray) -> _Arc | None:
     b = np.einsum("ij,ij->i", inner, inner) - 2.0 * inner @ mid
     if float(a @ a) < 1e-18:
         return None  # the points lie on the chord: a straight line
-    centre = mid + normal * float(a @ b) / float(a @ a)
+    centre = mid + normal * float(a @ b) / float(a @ a) if centre is None else np.asarray(centre) - origin
     radius = float(np.hypot(*centre))
     if not math.isfinite(radius) or radius > MAX_RADIUS:
         return None
@@ -163,7 +166,10 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     """
     if _ABSOLUTE_CENTRES.search("".join(current.lines)):
         return "".join(current.lines), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
-    chord = (read_options or ReaderOptions()).chord_tolerance
+    # the re-read check reads the arcs as chords within CHECK_CHORD of them (whatever the caller's tolerance)
+    read_options = replace(read_options or (start.options if start is not None else ReaderOptions()),
+                           chord_tolerance=CHECK_CHORD)
+    start = start.with_options(read_options) if start is not None else None
     point_of_line = {int(line): k for k, line in enumerate(original.lines_of_points)}
     edits: dict[int, str] = {}
     records: list[ArcRecord] = []
@@ -173,12 +179,15 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
         original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
         i = first
         while i + MIN_SEGMENTS <= last - 1:  # the chain's last line stays a G1 after the arcs
-            best = None
+            best, misses = None, 0
             for q in range(i + MIN_SEGMENTS, min(last - 1, i + MAX_SEGMENTS) + 1):
-                found = _try(current, xy, lines, original_xy[i - first:q - first + 1], i, q, tolerance, chord)
+                found = _try(current, xy, lines, original_xy[i - first:q - first + 1], i, q, tolerance)
                 if found is None:
-                    break
-                best = (q, *found)
+                    misses += 1
+                    if misses > LOOKAHEAD:
+                        break
+                    continue
+                best, misses = (q, *found), 0
             if best is None:
                 i += 1
                 continue
@@ -201,18 +210,62 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     return text, records, sorted(edits), None, kept_as_lines
 
 
-def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float, chord: float):
+def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float):
     arc = fit_arc(xy[i:q + 1])
     if arc is None:
         return None
+    found = _within(program, lines, original_xy, q, tolerance, arc)
+    if found is None and (closer := minimax_arc(xy[i:q + 1], arc)) is not None:
+        found = _within(program, lines, original_xy, q, tolerance, closer)
+    return found
+
+
+def minimax_arc(points: np.ndarray, arc: _Arc) -> _Arc | None:
+    """The arc through the same two end points whose largest radial miss of the points between is least
+    (a grid over the centre's place on the chord's bisector around ``arc``'s): the least-squares centre
+    spends the band evenly, this one spends it where the points need it."""
+    origin, chord = points[0], points[-1] - points[0]
+    length = float(np.hypot(*chord))
+    mid, normal = chord / 2.0, np.array([-chord[1], chord[0]]) / length
+    t0 = float((arc.centre - origin - mid) @ normal)
+    t = t0 + np.linspace(-1.0, 1.0, 161)[:, None] * 0.05 * (abs(t0) + length)  # (T, 1)
+    centres = mid + t * normal  # (T, 2), local coordinates
+    inner = points[1:-1] - origin
+    radii = np.hypot(centres[:, 0], centres[:, 1])
+    miss = np.abs(np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
+                  - radii[:, None]).max(axis=1)
+    best = int(np.argmin(miss))
+    return fit_arc(points, centre=centres[best] + origin)
+
+
+def _within(program: Program, lines, original_xy, q: int, tolerance: float, arc: _Arc):
     line = int(lines[q])
     scale = MM_PER_INCH if program.states[line].inch else 1.0
     rounding = 0.5 * 10.0 ** -line_decimals(program, line) * scale * math.sqrt(2.0)
-    budget = tolerance - 2.0 * rounding - chord  # end point and I/J rounding, the reader's chords
+    # the written arc moves by the end point's and I/J's rounding; the check reads it as chords
+    budget = tolerance - 2.0 * rounding - 2.0 * CHECK_CHORD
     if budget <= 0:
         return None
-    bound = arc_bound(original_xy, arc)  # cheap while the arc grows; the exact figure comes in _verify
+    bound = ray_bound(original_xy, arc)  # O(n); the exact figure comes from the re-read check
     return (arc, bound) if bound <= budget else None
+
+
+def ray_bound(original: np.ndarray, arc: _Arc) -> float:
+    """An upper bound, in O(n), of the two-sided (Frechet, hence Hausdorff) distance between the original
+    polyline and the arc, tighter than :func:`arc_bound`: when the vertices turn one way about the centre
+    (inf otherwise), pair every point of the polyline with the arc's point on the same ray from the centre.
+    Along a segment the distance to the centre is convex, so the largest ``|R - rho|`` of a segment is at
+    an end or at its nearest point to the centre: ``max(|d_a - R|, |d_b - R|, R - d_min)``."""
+    offset = original - arc.centre
+    angles = np.unwrap(np.arctan2(offset[:, 1], offset[:, 0]))
+    steps = np.diff(angles)
+    if not (np.all(steps * np.sign(arc.sweep) > 0)) or np.abs(steps).max() >= math.pi / 2:
+        return math.inf
+    d = np.hypot(offset[:, 0], offset[:, 1])
+    a, u = offset[:-1], np.diff(offset, axis=0)
+    t = np.clip(-np.einsum("ij,ij->i", a, u) / np.maximum(np.einsum("ij,ij->i", u, u), 1e-300), 0.0, 1.0)
+    nearest = np.hypot(a[:, 0] + t * u[:, 0], a[:, 1] + t * u[:, 1])
+    return float(max(np.abs(d - arc.radius).max(), (arc.radius - nearest).max()))
 
 
 def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
@@ -261,5 +314,6 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
     for r, line in zip(records, arc_lines, strict=True):
         a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
-        r.deviation_mm = float(hausdorff(original.points[a:b + 1, :2], new))
+        # the chords lie within CHECK_CHORD of the arc the controller runs: the bound of its distance
+        r.deviation_mm = float(hausdorff(original.points[a:b + 1, :2], new)) + CHECK_CHORD
     return [r for r in records if r.deviation_mm > tolerance + 1e-9]

@@ -42,9 +42,7 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
         "passed_through": list(getattr(result, "passed", [])),
         "largest_deviation_mm": max([w.deviation_mm for w in windows] + [a.deviation_mm for a in arcs], default=0.0),
         **({"arcs": {"fitted": len(arcs), "lines_replaced": sum(a.lines_replaced for a in arcs),
-                     # every construct the reader read past (toolpath.gcode.passing), copied through as written
-        "passed_through": list(getattr(result, "passed", [])),
-        "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
+                     "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
                      "not_fitted_because": result.arcs_note,
                      "kept_as_lines": getattr(result, "arcs_kept_as_lines", 0),  # rejected by the exact check
                      "rows": [asdict(a) for a in arcs]}}
