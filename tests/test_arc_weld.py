@@ -106,7 +106,7 @@ def test_absolute_arc_centres_are_left_alone():
     assert out == text and arcs == [] and "G90.1" in note
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(segments=st.integers(20, 400), radius=st.floats(1.0, 200.0), tolerance=st.sampled_from([0.002, 0.01, 0.05]),
        noise=st.floats(0.0, 0.01), seed=st.integers(0, 1000))
 def test_property_arcs_stay_within_the_tolerance_and_the_program_keeps_its_end(segments, radius, tolerance, noise,

@@ -193,7 +193,7 @@ def controller_programs(draw) -> str:
     return "\n".join(lines + ["M30"]) + "\n"
 
 
-@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(text=controller_programs())
 def test_property_the_whole_path_holds_the_tolerance_at_both_switch_states(text):
     import tempfile
