@@ -206,8 +206,10 @@ class Report:
         data = self.optimize_inputs()
         rcfg, seed = self.cfg.report, seed_for(self.cfg.seed, "report", "figures")
         mode, parts, cases, drawn = rcfg.figures_mode, [], {}, []
+        # a window the figures' mode ran on (a mode may run on only the first windows of each category)
+        in_mode = {s: [r for r in d["rows"] if r["mode"] == mode] for s, d in data.items()}
         for s, d in data.items():
-            picked = smoothing.pick_window(d["rows"], rcfg.figure_category, True, seed)
+            picked = smoothing.pick_window(in_mode[s], rcfg.figure_category, True, seed)
             if picked is not None:
                 head, category = picked
                 drawn.append(f"{s} window {head}, category {category}")
@@ -218,7 +220,7 @@ class Report:
                                      "Fig. 8: one drawn window per shape (" + "; ".join(drawn)
                                      + "), the original (black) and every method"))
         for number, (s, d) in enumerate(data.items(), start=9):
-            picked = smoothing.pick_window(d["rows"], rcfg.figure_category, False, seed)
+            picked = smoothing.pick_window(in_mode[s], rcfg.figure_category, False, seed)
             if picked is None:
                 parts.append(f"Fig. {number}: no smoothed {s} window in the sample.\n")
                 continue
