@@ -3,22 +3,10 @@
 from __future__ import annotations
 
 import warnings
-from enum import IntEnum
 
 import numpy as np
 
-
-class Split(IntEnum):
-    """The split a window's program belongs to: the code stored per window in the windows file."""
-
-    TRAIN = 0
-    VAL = 1
-    TEST = 2
-
-    @property
-    def label(self) -> str:
-        """'train', 'val' or 'test' (the keys of metrics files)."""
-        return ("train", "val", "test")[self]
+from toolpath.pipeline.artifacts import Split  # the windows file's split codes
 
 
 def split_by_program(program_ids: np.ndarray, labels: np.ndarray, fractions: tuple[float, float, float],

@@ -5,11 +5,8 @@ below those roots, a split code or a label encoding.  ``dvc.yaml`` declares the 
 and outs (``tests/test_artifacts.py`` checks that every path here is declared there).  A file that is
 missing or malformed stops the stage with one line naming the file and the stage that makes it.
 
-Encodings:
-
-* :class:`Split`: the split code stored per window (0 train, 1 val, 2 test);
-* labels are Table 1 categories 1-4 everywhere outside a network (:data:`CATEGORIES`); only a
-  network's output index is 0-3 (:func:`category_index`).
+Encodings: :class:`Split` codes per window (0 train, 1 val, 2 test); labels are Table 1 categories 1-4
+everywhere outside a network (:data:`CATEGORIES`); only a network's output index is 0-3 (:func:`category_index`).
 """
 
 from __future__ import annotations
@@ -19,17 +16,26 @@ import json
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, fields
+from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from toolpath.labels.split import Split
-
 __all__ = ["CATEGORIES", "ArtifactError", "Layout", "SmoothedSet", "Split", "WindowSet", "category_index",
            "load_arrays", "load_checkpoint", "load_classifier", "load_int8", "load_smoothed", "load_windows",
            "read_json", "read_rows", "save_checkpoint", "save_smoothed", "save_windows", "write_curves", "write_json",
            "write_rows"]
+
+
+class Split(IntEnum):
+    """The split code stored per window of the windows file (a window's whole program is in one split)."""
+    TRAIN, VAL, TEST = 0, 1, 2
+
+    @property
+    def label(self) -> str:
+        """'train', 'val' or 'test' (the keys of metrics files)."""
+        return ("train", "val", "test")[self]
 
 
 CATEGORIES = np.array([1, 2, 3, 4])  # Table 1's roughness categories, the labels of the windows file
@@ -278,7 +284,6 @@ def load_smoothed(path: Path, shape: str | None = None) -> SmoothedSet:
 # ---- checkpoints ---------------------------------------------------------------------------------
 def save_checkpoint(checkpoint: dict, path: Path) -> None:
     import torch
-
     path.parent.mkdir(parents=True, exist_ok=True)
     torch.save(checkpoint, path)
 
@@ -338,13 +343,8 @@ CURVE_COLUMNS = ("epoch", "lr", "train_loss", "train_accuracy", "val_loss", "val
 
 def write_curves(history: Iterable[Any], path: Path) -> None:
     """Per-epoch training records as the DVC plot's CSV (Figs. 6-7), fixed precision per column."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(CURVE_COLUMNS)
-        for r in history:
-            writer.writerow([r.epoch, f"{r.lr:.6g}", f"{r.train_loss:.6f}", f"{r.train_accuracy:.6f}",
-                             f"{r.val_loss:.6f}", f"{r.val_accuracy:.6f}"])
+    write_rows(({"epoch": r.epoch, "lr": f"{r.lr:.6g}", **{k: f"{getattr(r, k):.6f}" for k in CURVE_COLUMNS[2:]}}
+                for r in history), CURVE_COLUMNS, path)
 
 
 # ---- JSON and CSV --------------------------------------------------------------------------------
