@@ -132,6 +132,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
+    assert_mlflow_store_reads_as_the_pipeline(work, env)
     assert "up to date" in run(dvc + ["repro"], work, env)
     classified = json.loads((work / "reports/metrics/classify.json").read_text())  # Table 5, the classify stage's
     assert set(classified["predictions"]) == {"mcrl", "mlp", "rule"}
@@ -140,6 +141,47 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     with (work / "src/toolpath/smooth/command.py").open("a") as fh:
         fh.write("\n# a change that only the product sees\n")
     assert "up to date" in run(dvc + ["status"], work, env)
+
+
+def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict) -> None:
+    """The store of one `dvc repro` as `mlflow ui` shows it: a model-training experiment, one parent
+    spanning its stages with the configuration and the report, runs that last their work, every trained
+    network a logged model, each shape's best registered under an alias and loadable by `toolpath smooth`."""
+    import torch
+
+    mlflow.set_tracking_uri(env["MLFLOW_TRACKING_URI"])
+    client = mlflow.MlflowClient(tracking_uri=env["MLFLOW_TRACKING_URI"])
+    experiment = client.get_experiment_by_name("cnc-curvature")
+    assert experiment.tags["mlflow.experimentKind"] == "custom_model_development"
+    runs = client.search_runs([experiment.experiment_id], max_results=1000)
+    [parent] = [r for r in runs if r.data.tags.get("pipeline_role") == "parent"]
+    assert parent.data.params["profile"] == "smoke" and "train.common.lr" in parent.data.params
+    assert "make repro" in parent.data.tags["mlflow.note.content"]
+    assert {"params.yaml", "report.md", "tables", "figures"} <= \
+        {a.path for a in client.list_artifacts(parent.info.run_id)}
+    assert 0 < len(parent.data.metrics) <= 60 and "table3.gear.mcrl.test_accuracy" in parent.data.metrics
+    stages = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
+    assert {"generate@gear", "train@gear", "report"} <= {r.info.run_name for r in stages}
+    for r in stages:  # each stage's run lasts its work, and the parent spans them all
+        assert r.info.status == "FINISHED" and r.info.end_time > r.info.start_time >= parent.info.start_time
+        assert r.info.end_time <= parent.info.end_time
+    models = [r for r in runs if "model" in r.data.tags and r.data.tags.get("stage", "").startswith("train")]
+    assert {(r.data.tags["shape"], r.data.tags["model"]) for r in models} >= {("gear", "mcrl"), ("gear", "mlp")}
+    logged = mlflow.search_logged_models(experiment_ids=[experiment.experiment_id], output_format="list")
+    networks = {r.info.run_id for r in models if r.data.tags["model"] != "rule"}
+    assert {m.source_run_id for m in logged if m.name == "model"} == networks
+    assert sorted(m.name for m in logged if m.name.startswith("int8-")) == ["int8-mlp"] * 3  # the smoke QAT model
+    for r in models:  # a network's run spans its training (the rule is fitted in no time)
+        assert r.info.end_time > r.info.start_time or r.data.tags["model"] == "rule"
+    windows = np.cumsum(np.full((3, 50, 2), 0.1, np.float32), axis=1)
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        version = client.get_model_version_by_alias(f"toolpath-{shape.replace('_', '-')}", "best")
+        assert version.tags["model"] in ("mcrl", "mlp")
+        network = mlflow.pytorch.load_model(f"models:/toolpath-{shape.replace('_', '-')}@best")
+        assert network(torch.as_tensor(windows)).shape == (3, 4)
+    out = run([str(Path(sys.executable).parent / "toolpath"), "smooth", str(work / "data/gcode/gear/gear_000.nc"),
+               "-o", str(work / "out.nc"), "--classifier", "models:/toolpath-gear@best"], work, env)
+    assert (work / "out.nc").is_file(), out
 
 
 def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from toolpath.training.metrics import DEGENERATE, classification_metrics
-from toolpath.training.replicates import Job, Outcome, describe, job_order, summarise
+from toolpath.training.replicates import Job, Outcome, best_learned, describe, job_order, summarise
 
 Y = np.array([1, 1, 1, 1, 2, 2, 3, 4])
 PROGRAMS = np.array([0, 0, 1, 1, 2, 2, 3, 3])
@@ -97,3 +97,17 @@ def test_two_workers_give_the_bytes_one_worker_gives():
         results[workers] = [(o.metrics["test"]["loss"], o.checkpoint["state_dict"]) for o in outcomes]
     for (loss1, state1), (loss2, state2) in zip(results[1], results[2], strict=True):
         assert loss1 == loss2 and all(torch.equal(state1[k], state2[k]) for k in state1)
+
+
+def test_the_best_learned_model_is_chosen_on_validation_never_the_rule_or_a_degenerate_one():
+    def seeds(val_f1, test_f1, degenerate=0):
+        return {"degenerate": degenerate, "replicates": 3, "val": {"f1": {"mean": val_f1}},
+                "test": {"f1": {"mean": test_f1}}}
+
+    summaries = {"rule": seeds(1.0, 1.0), "lstm": seeds(0.90, 0.99), "mcrl": seeds(0.95, 0.90),
+                 "cnn": seeds(0.99, 0.99, degenerate=3)}
+    assert best_learned(summaries) == "mcrl"  # best on validation, though the LSTM is ahead on test
+    summaries["cnn"]["degenerate"] = 2  # one learned seed of three: scored on it
+    assert best_learned(summaries) == "cnn"
+    assert best_learned({"a": seeds(0.9, 0.5), "b": seeds(0.9, 0.6)}) == "a"  # a tie: the first name
+    assert best_learned({"rule": seeds(1.0, 1.0)}) is None

@@ -2,8 +2,14 @@
 
 The store is SQLite in the repository root (``sqlite:///$DVC_ROOT/mlflow.db``) unless
 ``MLFLOW_TRACKING_URI`` is set; artefacts go to ``$DVC_ROOT/mlruns``.  The parent run is named
-after the DVC experiment (``DVC_EXP_NAME``) or ``repro-<git sha>`` and found again by its
-``pipeline_key`` tag, so every stage of one pipeline run lands under it.
+after the DVC experiment (``DVC_EXP_NAME``) or ``repro-<git sha>``; one parent per invocation of DVC
+(the ``dvc`` process the stage runs under, by pid and start time), found again by those tags, so
+every stage of one ``dvc repro`` / ``dvc exp run`` lands under it.
+
+Runs span their work: the parent starts when that ``dvc`` process started and ends when its last
+stage ends (each stage closes it again); a stage's run starts when its process started; a model's
+run spans its training (:func:`log_model_run`).  The parent carries the composed configuration
+(``params.yaml``, flattened, and the file) and a description saying how to reproduce it.
 
 Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: every
 connection waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock (SQLite's busy timeout), a
@@ -21,11 +27,17 @@ import logging
 import os
 import subprocess
 import time
+import warnings
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, TypeVar
 
 EXPERIMENT = "cnc-curvature"
+EXPERIMENT_TAGS = {  # MLflow 3's UI opens a "custom model development" experiment on its runs table
+    "mlflow.experimentKind": "custom_model_development",
+    "mlflow.note.content": "toolpath-lab: CNC toolpath roughness recognition (MCRL and baselines, Tables 2-5), "
+                           "window smoothing (Table 6), NURBS corners and feedrate. One parent run per "
+                           "`dvc repro` / `dvc exp run`, one child run per stage, one nested run per model."}
 SQLITE_BUSY_SECONDS = 60
 T = TypeVar("T")
 log = logging.getLogger(__name__)
@@ -109,8 +121,13 @@ def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
     Runs under the store's init lock, in case this is the first use of a new store."""
     def get_or_create() -> str:
         found = client.get_experiment_by_name(name)
-        return found.experiment_id if found else \
-            client.create_experiment(name, artifact_location=(repo_root() / "mlruns").as_uri())
+        if found is None:
+            return client.create_experiment(name, artifact_location=(repo_root() / "mlruns").as_uri(),
+                                            tags=EXPERIMENT_TAGS)
+        for key, value in EXPERIMENT_TAGS.items():  # a store made by an earlier version
+            if found.tags.get(key) != value:
+                client.set_experiment_tag(found.experiment_id, key, value)
+        return found.experiment_id
 
     with sqlite_file_lock(str(client.tracking_uri)), _store_errors(str(client.tracking_uri)):
         return with_retry(get_or_create)
@@ -141,15 +158,74 @@ def pipeline_key() -> str:
     return os.environ.get("DVC_EXP_NAME") or f"repro-{git_commit()}"
 
 
+def dvc_invocation() -> tuple[str, int]:
+    """(id, start in ms) of the ``dvc`` process this stage runs under (``dvc repro``, ``dvc exp run``, a
+    queue worker): every stage it runs shares the id.  A stage run by hand is its own invocation."""
+    import psutil
+
+    me = psutil.Process()
+    for process in me.parents():
+        with contextlib.suppress(psutil.Error):
+            if any(Path(word).name == "dvc" for word in process.cmdline()[:3]):  # dvc, python .../dvc, python -m dvc
+                return f"{process.pid}-{int(process.create_time())}", int(process.create_time() * 1000)
+    return f"{me.pid}-{int(me.create_time())}", int(me.create_time() * 1000)
+
+
+def process_start_ms() -> int:
+    """When this process started (ms since the epoch): a stage's run starts there, not at its first log."""
+    import psutil
+
+    return int(psutil.Process().create_time() * 1000)
+
+
 def _parent_run_id(client: Any, experiment_id: str, key: str) -> str:
-    query = f"tags.pipeline_key = '{key}' and tags.pipeline_role = 'parent'"
+    invocation, started = dvc_invocation()
+    query = f"tags.pipeline_key = '{key}' and tags.pipeline_role = 'parent' and tags.invocation = '{invocation}'"
     found = client.search_runs([experiment_id], filter_string=query, max_results=1)
     if found:
         return found[0].info.run_id
-    tags = {"pipeline_key": key, "pipeline_role": "parent", "git_commit": git_commit()}
-    run = client.create_run(experiment_id, run_name=key, tags=tags)
-    client.set_terminated(run.info.run_id)
+    tags = {"pipeline_key": key, "pipeline_role": "parent", "git_commit": git_commit(), "invocation": invocation,
+            "mlflow.note.content": _description(key)}
+    run = client.create_run(experiment_id, start_time=started, run_name=key, tags=tags)
+    _log_configuration(client, run.info.run_id)
     return run.info.run_id
+
+
+def _description(key: str) -> str:
+    params = repo_root() / "params.yaml"
+    profile = "?"
+    with contextlib.suppress(OSError, ValueError):
+        import yaml
+
+        profile = (yaml.safe_load(params.read_text(encoding="utf-8")) or {}).get("profile", "?")
+    return (f"Pipeline run `{key}`: profile `{profile}`, commit `{git_commit()}`. Reproduce: `git checkout "
+            f"{git_commit()} && make repro` (the default profile; another: `python -m toolpath.pipeline.config "
+            f"+experiment={profile}` first). Its configuration is this run's parameters and `params.yaml`; "
+            "each stage is a child run, each trained network a nested run with its MLflow model.")
+
+
+def _log_configuration(client: Any, run_id: str) -> None:
+    """The composed configuration on the parent: ``params.yaml`` flattened (MLflow takes 100 a batch,
+    values up to 6000 characters) and the file itself."""
+    from mlflow.entities import Param
+
+    params = repo_root() / "params.yaml"
+    if not params.is_file():
+        return
+    import yaml
+
+    from toolpath.pipeline.config import flat
+
+    values = flat(yaml.safe_load(params.read_text(encoding="utf-8")) or {})
+    items = [Param(k[:250], str(v)[:6000]) for k, v in sorted(values.items())]
+    for start in range(0, len(items), 100):
+        with_retry(lambda batch=items[start:start + 100]: client.log_batch(run_id, params=batch))
+    with_retry(lambda: client.log_artifact(run_id, str(params)))
+
+
+def _close_parent(client: Any, parent: str, failed: bool) -> None:
+    """Each stage's end is the parent's end so far: after the last stage, the parent spans the pipeline."""
+    with_retry(lambda: client.set_terminated(parent, "FAILED" if failed else "FINISHED", int(time.time() * 1000)))
 
 
 def log_to_parent(metrics: Mapping[str, float], tags: Mapping[str, str]) -> str:
@@ -167,47 +243,146 @@ def log_to_parent(metrics: Mapping[str, float], tags: Mapping[str, str]) -> str:
 
 @contextlib.contextmanager
 def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) -> Iterator[Any]:
-    """Open the child run of ``stage`` (e.g. ``label@gear``) under the pipeline's parent run.
+    """Open the child run of ``stage`` (e.g. ``label@gear``) under the pipeline's parent run, started
+    when this process started; on exit the parent's end moves to now.
 
-    The run is marked FAILED if the body raises.  Params are logged once, as given.
+    The run (and the parent) is marked FAILED if the body raises.  Params are logged once, as given.
     """
     import mlflow
 
     mlflow.set_tracking_uri(tracking_uri())
     store = client()
     experiment = experiment_id(store)
-    parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
+    with sqlite_file_lock(tracking_uri()):  # two stages of one invocation starting at once share a parent
+        parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
     name = os.environ.get("DVC_STAGE") or stage
-    run_tags = {"stage": stage, "git_commit": git_commit(), "pipeline_key": pipeline_key(), **tags}
-    with mlflow.start_run(experiment_id=experiment, run_name=name, parent_run_id=parent, tags=run_tags) as run:
-        if params:
-            mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
-        yield run
+    run_tags = {"stage": stage, "git_commit": git_commit(), "pipeline_key": pipeline_key(), **tags,
+                "mlflow.parentRunId": parent}
+    created = with_retry(lambda: store.create_run(experiment, start_time=process_start_ms(), run_name=name,
+                                                  tags=run_tags))
+    failed = True
+    try:
+        with mlflow.start_run(run_id=created.info.run_id) as run:
+            if params:
+                mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
+            yield run
+        failed = False
+    finally:
+        _close_parent(store, parent, failed)
+
+
+def parent_run_id() -> str:
+    """The id of this invocation's parent run."""
+    store = client()
+    return with_retry(lambda: _parent_run_id(store, experiment_id(store), pipeline_key()))
 
 
 def log_model_run(name: str, tags: Mapping[str, str], params: Mapping[str, Any], curves: list,
-                  metrics: Mapping[str, float], artifacts: Mapping[str, Any]) -> None:
-    """One model's run nested in the active stage run: its per-epoch curves (each record's fields at
-    step = epoch), final metrics (step 0), params, dicts logged as JSON and files as artefacts (``name.json``
-    -> a dict, anything else -> a path).  One batch for the values: the stage process shares the cores
-    with the training workers."""
-    import time
-
+                  metrics: Mapping[str, float], artifacts: Mapping[str, Any], span: tuple[float, float] | None = None,
+                  network: Any = None, example: Any = None) -> str | None:
+    """One model's run nested in the active stage run, spanning ``span`` (start, end: epoch seconds) when
+    given: its per-epoch curves (each record's fields at step = epoch, timed across the span), final
+    metrics (step 0), params, dicts logged as JSON and files as artefacts (``name.json`` -> a dict,
+    anything else -> a path), and ``network`` (a torch module) as an MLflow PyTorch model with the
+    signature of ``example`` (a window batch).  Returns the model's URI (None without a network)."""
     import mlflow
     from mlflow.entities import Metric, Param
 
     stage = mlflow.active_run()
+    store = mlflow.MlflowClient()
     inherited = {k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")}
-    with mlflow.start_run(run_name=name, nested=True, experiment_id=stage.info.experiment_id,
-                          tags={**inherited, **tags}):
-        now = int(time.time() * 1000)
-        values = [Metric(k, float(v), now, record.epoch) for record in curves
-                  for k, v in vars(record).items() if k != "epoch"]
-        values += [Metric(k, float(v), now, 0) for k, v in metrics.items()]
-        mlflow.MlflowClient().log_batch(mlflow.active_run().info.run_id, metrics=values,
-                                        params=[Param(k, str(v)[:6000]) for k, v in params.items()])
-        for file_name, item in artifacts.items():
-            if file_name.endswith(".json") and isinstance(item, dict):
-                mlflow.log_dict(item, file_name)
-            else:
-                mlflow.log_artifact(str(item))
+    started, ended = span or (time.time(), time.time())
+    run = with_retry(lambda: store.create_run(stage.info.experiment_id, start_time=int(started * 1000), run_name=name,
+                                              tags={**inherited, **tags, "mlflow.parentRunId": stage.info.run_id}))
+    run_id, epochs = run.info.run_id, max(len(curves), 1)
+    values = [Metric(k, float(v), int(1000 * (started + (ended - started) * record.epoch / epochs)), record.epoch)
+              for record in curves for k, v in vars(record).items() if k != "epoch"]
+    values += [Metric(k, float(v), int(ended * 1000), 0) for k, v in metrics.items()]
+    for start in range(0, max(len(values), 1), 1000):  # MLflow's batch limits: 1000 metrics, 100 params
+        store.log_batch(run_id, metrics=values[start:start + 1000])
+    items = [Param(k, str(v)[:6000]) for k, v in params.items()]
+    for start in range(0, len(items), 100):
+        store.log_batch(run_id, params=items[start:start + 100])
+    for file_name, item in artifacts.items():
+        if file_name.endswith(".json") and isinstance(item, dict):
+            store.log_dict(run_id, item, file_name)
+        else:
+            store.log_artifact(run_id, str(item))
+    uri = None
+    if network is not None:
+        uri = _log_network(run_id, network, example)
+    store.set_terminated(run_id, "FINISHED", int(ended * 1000))
+    return uri
+
+
+def _log_network(run_id: str, network: Any, example: Any) -> str:
+    """``network`` as an MLflow PyTorch model of ``run_id``: input a batch of 50-point windows (N, 50, 2)
+    float32 in mm relative to the first point, output the four Table 1 logits."""
+    import mlflow
+    import numpy as np
+    import torch
+    from mlflow.models import infer_signature
+
+    network.eval()
+    with torch.no_grad():
+        logits = network(torch.as_tensor(example)).numpy()
+    with mlflow.start_run(run_id=run_id, nested=True), warnings.catch_warnings():
+        # MLflow's own GenAI types warn about their type hints on first import: nothing of ours
+        warnings.filterwarnings("ignore", message=".*inferred as AnyType.*")
+        info = mlflow.pytorch.log_model(network, name="model", signature=infer_signature(example, logits),
+                                        input_example=np.asarray(example),
+                                        pip_requirements=[f"torch>={torch.__version__.split('+')[0]}", "numpy"])
+    return info.model_uri
+
+
+def log_onnx_model(name: str, path: Path, tags: Mapping[str, str]) -> str:
+    """An ONNX file (the INT8 export the runtimes run) as an MLflow ONNX model of the active run."""
+    import mlflow
+    import onnx
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=".*inferred as AnyType.*")
+        info = mlflow.onnx.log_model(onnx.load(str(path)), name=name, tags=dict(tags), pip_requirements=["onnxruntime"])
+    return info.model_uri
+
+
+def register_best(shape: str, model_uri: str, model: str) -> None:
+    """Register the shape's best model (one definition: :func:`toolpath.training.replicates.best_learned`)
+    as ``toolpath-<shape>`` with the alias ``best``: ``models:/toolpath-<shape>@best``."""
+    import mlflow
+
+    name = f"toolpath-{shape.replace('_', '-')}"
+    store = mlflow.MlflowClient()
+    version = with_retry(lambda: mlflow.register_model(model_uri, name, tags={"model": model, "shape": shape}))
+    with_retry(lambda: store.set_registered_model_alias(name, "best", version.version))
+
+
+def record_up_to_date(stages: set[str]) -> dict[str, str]:
+    """Tag the parent with each stage of ``stages`` (``dvc.yaml`` names) this invocation did not run:
+    ``up_to_date.<run name>`` = the run that produced its outputs.  Returns those tags."""
+    store = client()
+    experiment = experiment_id(store)
+    parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
+    latest: dict[str, Any] = {}
+    for run in store.search_runs([experiment], filter_string="attributes.status = 'FINISHED'",
+                                 order_by=["attributes.start_time DESC"], max_results=5000):
+        name, tags = run.info.run_name, run.data.tags
+        if "stage" in tags and "model" not in tags and name.split("@")[0] in stages and name not in latest:
+            latest[name] = run
+    skipped = {f"up_to_date.{name}": f"up to date, produced by run {run.info.run_id} "
+               f"({run.data.tags.get('pipeline_key', '?')})"
+               for name, run in sorted(latest.items()) if run.data.tags.get("mlflow.parentRunId") != parent}
+    for key, value in skipped.items():
+        with_retry(lambda k=key, v=value: store.set_tag(parent, k, v))
+    return skipped
+
+
+def log_to_parent_artifacts(paths: Mapping[str, Path]) -> None:
+    """Files (``{artefact folder: path}``, '' for the root) and folders on the parent run."""
+    store = client()
+    parent = with_retry(lambda: _parent_run_id(store, experiment_id(store), pipeline_key()))
+    for folder, path in paths.items():
+        if path.is_dir():
+            store.log_artifacts(parent, str(path), folder or None)
+        elif path.is_file():
+            store.log_artifact(parent, str(path), folder or None)

@@ -21,59 +21,51 @@ def _load(path: Path, producer: str) -> dict | None:
 
 
 def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:
-    """(metrics, tags): Table 3 test accuracy per shape and model, the INT8 accuracy drop, the mean
-    curvature reduction and machining time saved in bound mode per paper method, the corner methods'
-    mean reduction per case; tags name the best learned model per shape by test accuracy."""
+    """(metrics, tags) for the parent run, at most 60 figures, each name saying what it is measured against:
+    per shape the Table 3 seed-mean test accuracy of every model, MCRL's INT8 accuracy drop, the Sec. 5.2.4
+    LocalCurvature reduction on categories 2-4 within the tube (``_vs_rough``: against the rough window) of
+    each paper smoother and the dispatch, and the machining time each saves (``_vs_g01``); per corner case,
+    NURBS + PSO's peak-curvature reduction against method 1 and its time against the G01 corner.  Tags
+    name the best learned model per shape (:func:`~toolpath.training.replicates.best_learned`).  The
+    per-seed, per-category and per-method detail stays on the stage runs."""
+    from toolpath.training.replicates import best_learned
+
     metrics: dict[str, float] = {}
     tags: dict[str, str] = {}
     for shape in shapes:
-        accuracy = {}
+        summaries = {}
         for model in models:
             found = _load(layout.train_metrics(shape, model), f"train@{shape}")
             if found is None:
                 continue
             seeds = found["replicates"]
-            if seeds["degenerate"]:  # flagged; an all-degenerate model is never scored
-                metrics[f"table3.{shape}.{model}.degenerate_seeds"] = float(seeds["degenerate"])
-            if seeds["degenerate"] == seeds["replicates"]:
+            summaries[model] = seeds
+            if seeds["degenerate"] == seeds["replicates"]:  # flagged in the report, never scored
                 continue
-            figure = seeds["test"]["accuracy"]
-            accuracy[model] = figure["mean"]
-            metrics[f"table3.{shape}.{model}.test_accuracy"] = figure["mean"]
-            if figure["sd"] is not None:
-                metrics[f"table3.{shape}.{model}.test_accuracy_sd"] = figure["sd"]
-            for replicate, value in figure["per_seed"].items():
-                metrics[f"table3.{shape}.{model}.test_accuracy_{replicate}"] = value
-        learned = {m: a for m, a in accuracy.items() if m != "rule"}
-        if learned:
-            tags[f"best_model.{shape}"] = max(sorted(learned), key=learned.get)
-        for model, entry in (_load(layout.qat_metrics(shape), f"qat@{shape}") or {}).items():
-            if isinstance(entry, dict) and "accuracy_drop_points" in entry:
-                metrics[f"int8.{shape}.{model}.accuracy_drop_points"] = entry["accuracy_drop_points"]
+            metrics[f"table3.{shape}.{model}.test_accuracy"] = seeds["test"]["accuracy"]["mean"]
+        if best := best_learned(summaries):
+            tags[f"best_model.{shape}"] = best
+        drop = (_load(layout.qat_metrics(shape), f"qat@{shape}") or {}).get("mcrl", {})
+        if isinstance(drop, dict) and "accuracy_drop_points" in drop:
+            metrics[f"int8.{shape}.mcrl.accuracy_drop_points_vs_fp32"] = drop["accuracy_drop_points"]
         optimized = _load(layout.optimize_summary(shape), f"optimize@{shape}") or {}
-        smoothing = optimized.get("methods", {}).get("bound", {}).get("plain", {})
+        tube = optimized.get("paper_metric", {}).get("tube", {})
+        for method, entry in tube.get("methods", {}).items():
+            if method in PAPER_SMOOTHERS and entry.get("categories_2_4"):
+                pooled = entry["categories_2_4"]["mean_reduction_pct"]
+                metrics[f"smoothing.{shape}.{method}.cat2_4_reduction_pct_vs_rough"] = pooled
+        if "dispatch" in tube:
+            dispatched = tube["dispatch"]["mean_reduction_pct"]
+            metrics[f"smoothing.{shape}.dispatch.cat2_4_reduction_pct_vs_rough"] = dispatched
         planned = _load(layout.feedrate_summary(shape), f"feedrate@{shape}") or {}
-        timing = planned.get("methods", {}).get("bound", {}).get("plain", {})
-        paper_metric = optimized.get("paper_metric", {})
-        for mode, node in paper_metric.items():  # Sec. 5.2.4 on categories 2-4, the parent run's headline
-            for method, entry in node.get("methods", {}).items():
-                if method in PAPER_SMOOTHERS and entry.get("categories_2_4"):
-                    pooled = entry["categories_2_4"]
-                    metrics[f"smoothing.{shape}.{mode}.{method}.cat2_4_reduction_pct"] = pooled["mean_reduction_pct"]
-                    metrics[f"smoothing.{shape}.{mode}.{method}.cat2_4_ci_low"] = pooled["mean_reduction_ci"][0]
-                    metrics[f"smoothing.{shape}.{mode}.{method}.cat2_4_ci_high"] = pooled["mean_reduction_ci"][1]
-            if "dispatch" in node:
-                dispatched = node["dispatch"]["mean_reduction_pct"]
-                metrics[f"smoothing.{shape}.{mode}.dispatch.cat2_4_reduction_pct"] = dispatched
+        timing = planned.get("methods", {}).get("tube", {}).get("plain", {})
         for method in PAPER_SMOOTHERS:
-            if method in smoothing:  # the former headline: every category, disc bound
-                every = smoothing[method]["mean_reduction_pct"]
-                metrics[f"smoothing.{shape}.{method}.all_categories_reduction_pct"] = every
-                metrics[f"smoothing.{shape}.{method}.max_hausdorff_mm"] = smoothing[method]["max_hausdorff_mm"]
             if method in timing:
-                metrics[f"feedrate.{shape}.{method}.time_saved_pct"] = timing[method]["time_saved_pct"]
+                metrics[f"feedrate.{shape}.{method}.time_saved_pct_vs_g01"] = timing[method]["time_saved_pct"]
     for case, record in ((_load(layout.corner_metrics, "corner") or {}).get("cases", {})).items():
-        for method, entry in record["methods"].items():
-            if entry.get("mean_reduction_pct") is not None:
-                metrics[f"corner.{case}.{method}.mean_reduction_pct"] = entry["mean_reduction_pct"]
+        entry = record["methods"].get("nurbs_pso", {})
+        if entry.get("mean_reduction_vs_method1_pct") is not None:
+            metrics[f"corner.{case}.nurbs_pso.peak_reduction_pct_vs_method1"] = entry["mean_reduction_vs_method1_pct"]
+        if entry.get("time_saved_vs_g01_pct") is not None:
+            metrics[f"corner.{case}.nurbs_pso.time_saved_pct_vs_g01"] = entry["time_saved_vs_g01_pct"]
     return metrics, tags

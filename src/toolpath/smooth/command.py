@@ -62,7 +62,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="largest two-sided distance (mm) between the new path and the old (default 0.01)")
     p.add_argument("--classifier", default="rule",
-                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt, an INT8 MODEL.pt2, or "
+                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt, an INT8 MODEL.pt2, a "
+                        "registered model (models:/toolpath-gear@best, from ./mlflow.db or MLFLOW_TRACKING_URI), or an "
                         "ONNX file (the INT8 MODEL.onnx of models/int8/<shape>/) run in --runtime")
     p.add_argument("--runtime", default="onnxruntime", choices=("onnxruntime", "openvino"),
                    help="the runtime of an .onnx classifier (default onnxruntime: it keeps every INT8 model within "
@@ -87,7 +88,9 @@ def parser() -> argparse.ArgumentParser:
 
 
 #: what an option needs beyond the core install, and the extra that brings it
-EXTRAS = {"matplotlib": "plot", "torch": "models", "sklearn": "models", "onnxruntime": "int8", "openvino": "int8"}
+EXTRAS = {"matplotlib": "plot", "torch": "models", "sklearn": "models", "onnxruntime": "int8", "openvino": "int8",
+          "mlflow": "registry"}
+REGISTRY_SCHEMES = ("models:/", "runs:/")  # an MLflow model URI: models:/toolpath-gear@best
 
 
 def _needs(args: argparse.Namespace) -> None:
@@ -102,6 +105,9 @@ def _needs(args: argparse.Namespace) -> None:
     suffix = Path(args.classifier).suffix.lower()
     if args.classifier == "rule":
         pass
+    elif args.classifier.startswith(REGISTRY_SCHEMES):
+        wanted += [("mlflow", "a models:/ classifier is read from the MLflow registry"),
+                   ("torch", "a trained classifier runs in torch")]
     elif suffix == ".onnx":
         wanted.append((args.runtime, f"an .onnx classifier runs in {args.runtime}"))
     else:
@@ -155,6 +161,8 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
         from toolpath.labels.categories import categorize
 
         return lambda X: categorize(local_curvature(np.asarray(X, np.float64))).astype(np.int64)
+    if spec.startswith(REGISTRY_SCHEMES):
+        return _registered(spec)
     path = Path(spec)
     if not path.is_file():
         raise UsageError(f"{spec}: no such model file (or say --classifier rule)")
@@ -167,7 +175,6 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
             reason = (str(exc).splitlines() or [type(exc).__name__])[0][:160]
             raise InputError(f"{path}: not a model {runtime} can run ({reason})") from None
         return lambda X: runtimes.logits(run, X).argmax(1) + 1
-    import torch
 
     if path.suffix == ".pt2":
         from toolpath.inference.qat import load
@@ -186,11 +193,46 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
             problem = getattr(exc, "problem", str(exc))
             raise InputError(f"{path}: not a readable model checkpoint ({problem[:160]})") from None
         return lambda X: np.asarray(model.predict(np.asarray(X, np.float32)))
+    return _predictor(network)
+
+
+def _predictor(network):
+    """Categories 1-4 from a torch network's four logits."""
+    import torch
+
     from toolpath.training.loop import predict_logits
 
     def predict(X: np.ndarray) -> np.ndarray:
         logits = predict_logits(network, torch.as_tensor(np.asarray(X, np.float32)))
         return logits.argmax(1).numpy() + 1
+
+    return predict
+
+
+def _registered(uri: str):
+    """Categories 1-4 by the network an MLflow model URI names, from ``MLFLOW_TRACKING_URI`` or else the
+    pipeline's store (``mlflow.db`` in the current folder, as ``make repro`` writes it).  MLflow keeps it
+    as an exported graph, already in eval mode (it has no ``eval()``)."""
+    import logging
+
+    import mlflow
+    import torch
+
+    logging.getLogger("mlflow").setLevel(logging.ERROR)  # its store-migration chatter is no news to a machinist
+    store = os.environ.get("MLFLOW_TRACKING_URI") or f"sqlite:///{Path.cwd() / 'mlflow.db'}"
+    mlflow.set_tracking_uri(store)
+    mlflow.set_registry_uri(store)
+    try:
+        network = mlflow.pytorch.load_model(uri, map_location="cpu")
+    except Exception as exc:  # noqa: BLE001 - an unknown name, alias or store is the URI's problem, in one line
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
+        raise InputError(f"{uri}: no model to load from the MLflow store {store} ({reason})") from None
+
+    def predict(X: np.ndarray) -> np.ndarray:
+        X = torch.as_tensor(np.asarray(X, np.float32))
+        with torch.no_grad():
+            logits = [network(X[i:i + 1024]) for i in range(0, len(X), 1024)]
+        return torch.cat(logits).argmax(1).numpy() + 1 if logits else np.zeros(0, np.int64)
 
     return predict
 

@@ -72,6 +72,9 @@ def main(argv: list[str] | None = None) -> None:
         artifacts.write_json(report, layout.qat_metrics(args.shape))
         artifacts.write_json(timing, layout.qat_timing(args.shape))
         mlflow.log_dict(report, "qat.json")
+        for name in qcfg["models"]:  # each shipped INT8 file as an MLflow ONNX model of this run
+            if report[name].get("status") == "ok" and layout.int8_onnx(args.shape, name).is_file():
+                tracking.log_onnx_model(f"int8-{name}", layout.int8_onnx(args.shape, name), {"model": name})
         qat_runs.stop_if_any_failed(report, args.shape, layout.qat_metrics(args.shape), out_dir)
 
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
+import yaml
+
 from toolpath.pipeline import config, settings, tracking
 from toolpath.reports import summary
 from toolpath.reports.builder import Report
@@ -46,6 +48,10 @@ def main(argv: list[str] | None = None) -> None:
                                       encoding="utf-8")
         layout = settings.layout(cfg)
         tracking.log_to_parent(*headline(layout, cfg.shapes, cfg.train.models))
+        tracking.log_to_parent_artifacts({"": out / "report.md", "tables": out / "tables",
+                                          "figures": out / "figures" / f"{summary.HEADLINE}.png"})
+        if (pipeline := Path("dvc.yaml")).is_file():  # the stages DVC skipped: say which run made their outputs
+            tracking.record_up_to_date(set(yaml.safe_load(pipeline.read_text(encoding="utf-8"))["stages"]))
         missing = [s.title for s in sections if s.missing]
         mlflow.log_metrics({"sections": len(sections), "missing_sections": len(missing)})
         mlflow.log_artifact(str(out / "report.md"))

@@ -17,6 +17,7 @@ from toolpath.models.registry import parameter_count
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.workers import progress, shape_arg
 from toolpath.training import replicates
+from toolpath.training.classifier import from_checkpoint
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -36,6 +37,8 @@ def main(argv: list[str] | None = None) -> None:
             for model in cfg.train.models for r in range(cfg.train.replicates if _learned(cfg, model) else 1)]
     jobs = replicates.job_order(jobs, lambda j: _cost(j, cfg))
     outcomes: dict[str, list[replicates.Outcome]] = {m: [] for m in cfg.train.models}
+    saved: dict[str, tuple[str | None, dict]] = {}  # model: (its MLflow model URI, its seed summary)
+    example = data.part(artifacts.Split.TEST)[0][:4].astype(np.float32)  # the logged models' input example
     with tracking.stage_run(f"train@{args.shape}", {"replicates": cfg.train.replicates,
                                                    "workers": common.workers, "threads": common.threads},
                             shape=args.shape):
@@ -43,7 +46,11 @@ def main(argv: list[str] | None = None) -> None:
         for outcome in progress(runs, f"train {args.shape}", total=len(jobs)):
             outcomes[outcome.job.model].append(outcome)
             if len(outcomes[outcome.job.model]) == (cfg.train.replicates if _learned(cfg, outcome.job.model) else 1):
-                _save_model(cfg, layout, args.shape, outcome.job.model, outcomes[outcome.job.model], programs)
+                saved[outcome.job.model] = _save_model(cfg, layout, args.shape, outcome.job.model,
+                                                       outcomes[outcome.job.model], programs, example)
+        uris, summaries = {m: u for m, (u, _) in saved.items()}, {m: s for m, (_, s) in saved.items()}
+        if (best := replicates.best_learned(summaries)) and uris.get(best):
+            tracking.register_best(args.shape, uris[best], best)
 
 
 def _learned(cfg, model: str) -> bool:
@@ -59,7 +66,8 @@ def _cost(job: replicates.Job, cfg) -> float:
     return parameter_count(build(job.network)) * float(job.settings.get("epochs", 0)) if _learned(cfg, job.model) else 0
 
 
-def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: list, programs: dict) -> None:
+def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: list, programs: dict,
+                example: np.ndarray) -> tuple[str | None, dict]:
     runs = sorted(runs, key=lambda o: o.job.replicate)
     first = runs[0]
     summary = replicates.summarise(runs, programs["test"], config.seed_for(cfg.seed, "bootstrap", shape, model))
@@ -73,11 +81,14 @@ def _save_model(cfg, layout: artifacts.Layout, shape: str, model: str, runs: lis
     # the curves under their DVC plot columns (val_accuracy); val.accuracy is the final model's figure;
     # the report stage draws the confusion matrices, MLflow keeps the numbers
     finals = {k: v for k, v in config.flat(metrics).items() if isinstance(v, int | float) and not isinstance(v, bool)}
-    tracking.log_model_run(f"train@{shape}-{model}", {"shape": shape, "model": model},
+    network = from_checkpoint(first.checkpoint).network_ if first.checkpoint.get("kind") == "torch" else None
+    uri = tracking.log_model_run(f"train@{shape}-{model}", {"shape": shape, "model": model},
                            {**config.flat(first.job.network, "model"), **config.flat(first.job.settings, "train")},
                            first.history, {**finals, "train_seconds": sum(o.seconds for o in runs)},
                            {"confusion_test.json": {"confusion_test": metrics["test"]["confusion"]},
-                            "checkpoint": checkpoint})
+                            "checkpoint": checkpoint}, span=(first.started, first.started + first.seconds),
+                           network=network, example=example)
+    return uri, summary
 
 
 if __name__ == "__main__":

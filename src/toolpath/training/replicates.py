@@ -13,6 +13,7 @@ each: results depend on the thread count, so it is fixed, never "whatever is fre
 from __future__ import annotations
 
 import multiprocessing
+import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -47,6 +48,7 @@ class Outcome:
     history: list
     seconds: float
     test_correct: np.ndarray
+    started: float = 0.0  # wall clock (epoch seconds) when the run began: its MLflow run spans it
 
 
 _DATA: dict[str, Any] = {}
@@ -63,11 +65,11 @@ def _init(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], programs: Mapping[
 def _run(job: Job) -> Outcome:
     from toolpath.training.classifier import fit_and_score, to_checkpoint
 
-    parts = _DATA["parts"]
+    parts, started = _DATA["parts"], time.time()
     clf, metrics, history, seconds = fit_and_score(job.network, job.settings, job.class_weight, parts,
                                                    programs=_DATA["programs"])
     correct = clf.predict(parts["test"][0]) == parts["test"][1]
-    return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct)
+    return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct, started)
 
 
 def run_all(jobs: Sequence[Job], parts: Mapping[str, tuple[np.ndarray, np.ndarray]],
@@ -109,6 +111,15 @@ def summarise(outcomes: Sequence[Outcome], test_programs: np.ndarray, seed: int)
         correct = np.mean([o.test_correct for o in learned], axis=0)
         summary["accuracy_ci"] = program_bootstrap(correct, test_programs, seed)
     return summary
+
+
+def best_learned(summaries: Mapping[str, Mapping[str, Any]]) -> str | None:
+    """The one definition of a shape's best learned model (README, report, MLflow tags and registry):
+    the highest mean *validation* macro F1 over seeds among learned models with a non-degenerate seed,
+    chosen on validation so the test figures reported for it stay held out; ties go to the first name."""
+    scored = {m: s["val"]["f1"]["mean"] for m, s in sorted(summaries.items())
+              if m != "rule" and s["degenerate"] < s["replicates"] and s["val"]["f1"]["mean"] is not None}
+    return max(scored, key=scored.get) if scored else None
 
 
 def describe(summary: Mapping[str, Any]) -> str | None:
