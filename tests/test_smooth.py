@@ -56,7 +56,9 @@ def _whole_path_deviation(before: str, after: str) -> float:
     a = feed_runs(read_text(before, "a"))
     b = feed_runs(read_text(after, "b"))
     assert len(a) == len(b)
-    return max(float(hausdorff(p[0], q[0])) for p, q in zip(a, b, strict=True))
+    # a run that came back point for point the same lies at distance 0: skip its (quadratic) distance
+    return max((0.0 if np.array_equal(p[0], q[0]) else float(hausdorff(p[0], q[0])) for p, q in zip(a, b, strict=True)),
+               default=0.0)
 
 
 @pytest.mark.parametrize("ending", ["\n", "\r\n"])

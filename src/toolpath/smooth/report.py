@@ -162,7 +162,10 @@ def _figure(result, windows):
 
 
 def _cell(value) -> str:
-    """A report value as a table cell reads it: a mapping as ``key: value; ..``, a list comma-separated."""
+    """A report value as a table cell reads it: a mapping as ``key: value; ..``, a list comma-separated,
+    nothing as "none" (not Python's None)."""
+    if value is None:
+        return "none"
     if isinstance(value, dict):
         return "; ".join(f"{k}: {_cell(v)}" for k, v in value.items()) or "none"
     if isinstance(value, list | tuple):
