@@ -66,3 +66,17 @@ def trained_mlp():
     settings = {"lr": 3e-3, "epochs": 15, "batch_size": 32, "decay_steps": 1000, "seed": 1}
     clf = TorchClassifier({"_target_": "toolpath.models.MLP"}, settings).fit(X, y + 1)
     return clf, X, y
+
+
+LONG_GROUPS = ("pipeline", "queue")  # the end-to-end runs: minutes each
+
+
+def pytest_collection_modifyitems(config, items):
+    """Run the end-to-end groups first: `make test`'s two workers each start with one and share the unit
+    tests after, instead of one worker reaching a several-minute test last."""
+    def rank(item):
+        marker = item.get_closest_marker("xdist_group")
+        group = (marker.args[0] if marker and marker.args else marker.kwargs.get("name")) if marker else None
+        return LONG_GROUPS.index(group) if group in LONG_GROUPS else len(LONG_GROUPS)
+
+    items.sort(key=rank)  # stable: every other test keeps its order
