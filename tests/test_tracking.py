@@ -53,3 +53,24 @@ def test_retry_gives_up_on_errors_that_are_not_races():
     with pytest.raises(ValueError):
         tracking.with_retry(wrong)
     assert len(calls) == 1  # not a race: not retried
+
+
+def test_each_dvc_invocation_has_its_own_parent_and_names_the_run_behind_a_skipped_stage(mlflow_store, monkeypatch):
+    monkeypatch.setenv("DVC_EXP_NAME", "exp-a")
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("111-1", 1_000))
+    with tracking.stage_run("label@gear"):
+        pass
+    with tracking.stage_run("train@gear"):
+        pass
+    first = tracking.parent_run_id()
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("222-2", 2_000))  # a later `dvc repro`: train only
+    with tracking.stage_run("train@gear"):
+        pass
+    second = tracking.parent_run_id()
+    assert second != first
+    skipped = tracking.record_up_to_date({"label", "train"})
+    assert list(skipped) == ["up_to_date.label.gear"] and "exp-a" in skipped["up_to_date.label.gear"]
+    store = tracking.client()
+    label_run = store.get_run(first)  # the first parent started with its dvc process and ended after its stages
+    assert label_run.info.start_time == 1_000 and label_run.info.end_time > 1_000
+    assert store.get_run(second).data.tags["up_to_date.label.gear"] == skipped["up_to_date.label.gear"]

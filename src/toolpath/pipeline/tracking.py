@@ -369,7 +369,8 @@ def record_up_to_date(stages: set[str]) -> dict[str, str]:
         name, tags = run.info.run_name, run.data.tags
         if "stage" in tags and "model" not in tags and name.split("@")[0] in stages and name not in latest:
             latest[name] = run
-    skipped = {f"up_to_date.{name}": f"up to date, produced by run {run.info.run_id} "
+    # MLflow keys take no "@": label@gear is tagged up_to_date.label.gear
+    skipped = {f"up_to_date.{name.replace('@', '.')}": f"up to date, produced by run {run.info.run_id} "
                f"({run.data.tags.get('pipeline_key', '?')})"
                for name, run in sorted(latest.items()) if run.data.tags.get("mlflow.parentRunId") != parent}
     for key, value in skipped.items():
