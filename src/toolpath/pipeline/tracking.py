@@ -364,15 +364,18 @@ def record_up_to_date(stages: set[str]) -> dict[str, str]:
     experiment = experiment_id(store)
     parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
     latest: dict[str, Any] = {}
+    ran_now: set[str] = set()
     for run in store.search_runs([experiment], filter_string="attributes.status = 'FINISHED'",
                                  order_by=["attributes.start_time DESC"], max_results=5000):
         name, tags = run.info.run_name, run.data.tags
-        if "stage" in tags and "model" not in tags and name.split("@")[0] in stages and name not in latest:
-            latest[name] = run
+        if "stage" in tags and "model" not in tags and name.split("@")[0] in stages:
+            if tags.get("mlflow.parentRunId") == parent:
+                ran_now.add(name)  # runs of one process share a start time: order alone cannot tell
+            latest.setdefault(name, run)
     # MLflow keys take no "@": label@gear is tagged up_to_date.label.gear
     skipped = {f"up_to_date.{name.replace('@', '.')}": f"up to date, produced by run {run.info.run_id} "
                f"({run.data.tags.get('pipeline_key', '?')})"
-               for name, run in sorted(latest.items()) if run.data.tags.get("mlflow.parentRunId") != parent}
+               for name, run in sorted(latest.items()) if name not in ran_now}
     for key, value in skipped.items():
         with_retry(lambda k=key, v=value: store.set_tag(parent, k, v))
     return skipped
