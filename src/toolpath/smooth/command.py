@@ -332,12 +332,22 @@ def _weld(result, program, tolerance: float, start) -> None:
     result.changed_lines = sorted(set(result.changed_lines) | set(lines))
 
 
-class Terminated(BaseException):
-    """SIGTERM, raised where the process stands so every temporary file is removed on the way out."""
+SIGNAL_EXITS = {"SIGINT": (130, "interrupted"), "SIGTERM": (143, "terminated")}
 
 
-def _terminate(signum, frame) -> None:
-    raise Terminated
+def _stop(signum, frame) -> None:
+    """SIGINT / SIGTERM: remove the temporaries and exit at once.  An exception raised here could land
+    in a finaliser, where Python prints and swallows it and the run goes on (seen once in the suite);
+    nothing is renamed over an input after this point, so the input stays as it was."""
+    import signal
+
+    from toolpath.smooth.outputs import remove_pending
+
+    code, said = SIGNAL_EXITS[signal.Signals(signum).name]
+    remove_pending()
+    sys.stderr.write(f"toolpath smooth: {said}, no file written\n")
+    sys.stderr.flush()
+    os._exit(code)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -345,15 +355,12 @@ def main(argv: list[str] | None = None) -> int:
 
     p = parser()
     args = p.parse_args(argv)
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    previous = {signum: signal.signal(signum, _stop) for signum in (signal.SIGINT, signal.SIGTERM)}
     try:
         report = run(args)
-    except KeyboardInterrupt:  # SIGINT: the input untouched, no temporary file left (outputs.atomic)
+    except KeyboardInterrupt:  # a SIGINT before the handler was set: the input untouched, no temporary left
         print("toolpath smooth: interrupted, no file written", file=sys.stderr)
         return 130
-    except Terminated:
-        print("toolpath smooth: terminated, no file written", file=sys.stderr)
-        return 143
     except UsageError as exc:
         p.print_usage(sys.stderr)
         print(f"toolpath smooth: error: {exc}", file=sys.stderr)
@@ -368,7 +375,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"toolpath smooth: internal error, no file written: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 3
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     w = report["windows"]
     print(f"{args.input} -> {report['output']}: {w['total']} windows ({w['smoothed']} smoothed), "
           f"{report['lines_changed']} lines changed, largest deviation {report['largest_deviation_mm']:.4f} mm "

@@ -102,11 +102,15 @@ def plan(input_path: Path, output: Path | None, in_place: bool, report: Path | N
     return outputs
 
 
+PENDING: set[str] = set()  # temporaries of atomic() not yet renamed or removed
+
+
 @contextlib.contextmanager
 def atomic(path: Path) -> Iterator:
     """A file beside ``path`` to write, renamed to ``path`` when the block ends without an error (or a
     signal): a reader never sees half a file, and a failure leaves ``path`` as it was."""
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    PENDING.add(temporary)
     try:
         with os.fdopen(handle, "wb") as fh:
             yield fh
@@ -118,3 +122,12 @@ def atomic(path: Path) -> Iterator:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
+    finally:
+        PENDING.discard(temporary)
+
+
+def remove_pending() -> None:
+    """Remove every temporary :func:`atomic` has open (a signal handler's last act before exiting)."""
+    for temporary in list(PENDING):
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
