@@ -119,12 +119,20 @@ def surrogate_corner(nets: tuple, corner: Corner, delta_max: float, pso: PsoSett
     return smooth_corner(nets[0], nets[1], corner, delta_max, pso, limit)
 
 
+def pso_smoother(corner: Corner, settings: CornerSettings, _: float = math.inf) -> tuple[CornerCurve | None, str]:
+    """Method 2 by PSO with method 1 at delta_max and the dual Bezier on the same room in its first swarm
+    (:func:`toolpath.corners.pso.pso_corner`'s references): never sharper than either where either is
+    feasible.  The source says which family the answer is: ``pso``, ``pso: method 1`` or ``pso: dual Bezier``."""
+    references = {"pso: method 1": method1_at(corner, settings.delta_max),
+                  "pso: dual Bezier": bezier_transition(corner.turn, 2 * corner.leg, settings.delta_max)}
+    found, _ = pso_corner(corner, settings.delta_max, settings=settings.pso, references=list(references.values()))
+    return found, next((name for name, curve in references.items() if found is curve and found is not None), "pso")
+
+
 def corner_smoother(method: str, nets: tuple | None = None) -> Smoother:
     """The corner function of ``method``; ``nurbs_net`` needs ``nets`` = (fdls, sdls)."""
     if method == "nurbs_pso":
-        def pso(corner: Corner, s: CornerSettings, _: float) -> tuple[CornerCurve | None, str]:
-            return pso_corner(corner, s.delta_max, settings=s.pso)[0], "pso"
-        return pso
+        return pso_smoother
     if method == "nurbs_net":
         if nets is None:
             raise ValueError("nurbs_net needs the trained FDLS and SDLS networks")
@@ -193,8 +201,10 @@ def smooth_path(points: np.ndarray, smoother: Smoother, settings: CornerSettings
         found, source = (None, "reversal") if corner.turn > MAX_TURN else smoother(corner, settings, limit)
         seconds = time.perf_counter() - started
         if found is None or not found.feasible:
+            reason = (f"kept: reversal (turn over {math.degrees(MAX_TURN):.0f} deg)" if source == "reversal" else
+                      f"kept: no curve meets Eq. 7 within delta_max on legs of {corner.leg:.3f} mm")
             results.append(CornerResult(vertex, math.degrees(corner.turn), corner.leg, before, method1,
-                                        1.0 / blend[vertex], math.nan, False, "kept", seconds))
+                                        1.0 / blend[vertex], math.nan, False, reason, seconds))
             continue
         u = np.linspace(0.0, 1.0, settings.curve_samples)
         curves[vertex] = (points[vertex] + found.curve(u) @ frame.T, found.curve.radius(u))

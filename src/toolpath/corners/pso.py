@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import BSpline
+from scipy.stats import qmc
 
 from toolpath.corners.curve import SAMPLES, Corner, CornerCurve, _basis_at_half, evaluate, solve_weights
 from toolpath.corners.nurbs import clamped_uniform_knots
@@ -126,6 +128,17 @@ def swarm_fitness(corner: Corner, extras: np.ndarray, delta_max: float, delta_ta
     return np.where(ok, curvature, np.inf)
 
 
+LEG_PARTICLES = 8
+
+
+def leg_particles(corner: Corner, count: int) -> np.ndarray:
+    """Method-1-like particles: P_{i+3} on the leg from P_{i-1} to P_i at fractions of L spaced
+    geometrically from 0.01 to 0.95 of the way from the corner (the control polygon stays method 1's).
+    The flattest curves of sharp corners sit on this diagonal within a few per cent of the corner,
+    a basin too thin for a random start to find reliably."""
+    return np.outer(np.geomspace(0.01, 0.95, count), corner.leg_point(corner.leg, -1))
+
+
 def _candidate(corner: Corner, extra: np.ndarray, delta_max: float, delta_target: float) -> CornerCurve | None:
     points = corner.method2_points(extra)
     weights = solve_weights(points, delta_target)
@@ -133,25 +146,34 @@ def _candidate(corner: Corner, extra: np.ndarray, delta_max: float, delta_target
 
 
 def pso_corner(corner: Corner, delta_max: float = 0.1, delta_target: float | None = None,
-               settings: PsoSettings = PsoSettings(), curvature_limit: float = math.inf
-               ) -> tuple[CornerCurve | None, list[float]]:
+               settings: PsoSettings = PsoSettings(), curvature_limit: float = math.inf,
+               references: Sequence[CornerCurve] = ()) -> tuple[CornerCurve | None, list[float]]:
     """Method 2's extra points by PSO (Eq. 8) minimising the peak curvature under Eq. 7.
 
-    Particles move in the open box of P_{i+3} (positions are kept strictly inside it); an
-    infeasible candidate (including one whose peak curvature reaches ``curvature_limit``, Eq. 7's
-    cur_max) has infinite fitness, so the answer, when there is one, is feasible.
-    Returns the best corner (None if no particle ever met Eq. 7) and the best fitness per iteration.
+    Particles move in the open box of P_{i+3} (positions are kept strictly inside it), starting from a
+    Latin hypercube of the box (a uniform draw can leave a whole basin of this two-mode
+    landscape unvisited, and 48 particles then settle on the worse one); an infeasible candidate
+    (including one whose peak curvature reaches ``curvature_limit``, Eq. 7's cur_max) has infinite
+    fitness, so the answer, when there is one, is feasible.  ``references`` are curves of other
+    families (method 1 at delta_max, the dual Bezier) that enter as the swarm's first best: a
+    method-2 particle replaces one only by being flatter, so the answer is never sharper than a
+    feasible reference; when one stays best it is returned itself (the caller can tell by identity).
+    Returns the best corner (None if nothing met Eq. 7) and the best fitness per iteration.
     """
     target = delta_max if delta_target is None else delta_target
     lo, hi = corner.box()
     margin = 1e-6 * (hi - lo)
     lo, hi = lo + margin, hi - margin
     rng = np.random.default_rng(settings.seed)
+    usable = [r for r in references if r is not None and r.feasible and r.max_curvature < curvature_limit]
+    reference = min(usable, key=lambda r: r.max_curvature, default=None)
+    floor = reference.max_curvature if reference is not None else math.inf
 
     def fitness(x: np.ndarray) -> np.ndarray:
         return swarm_fitness(corner, x, delta_max, target, curvature_limit)
 
-    x = rng.uniform(lo, hi, (settings.particles, 2))
+    x = lo + qmc.LatinHypercube(d=2, seed=rng).random(settings.particles) * (hi - lo)
+    x[:LEG_PARTICLES] = leg_particles(corner, min(LEG_PARTICLES, settings.particles))
     v = np.zeros_like(x)
     best_x, best_f = x.copy(), fitness(x)
     g = int(np.argmin(best_f))
@@ -167,6 +189,7 @@ def pso_corner(corner: Corner, delta_max: float = 0.1, delta_target: float | Non
         best_x[better], best_f[better] = x[better], f[better]
         g = int(np.argmin(best_f))
         history.append(float(best_f[g]))
-    if not math.isfinite(best_f[g]):
-        return None, history
+    history = [min(h, floor) for h in history]
+    if not best_f[g] < floor:
+        return reference, history
     return _candidate(corner, best_x[g], delta_max, target), history

@@ -137,7 +137,7 @@ def run_case(name: str, methods: list[str], nets: tuple, settings: CornerSetting
     for method in methods:
         smoothed = smooth_path(points, corner_smoother(method, nets), settings)
         result, planned = assess(smoothed.points, smoothed.rho, machine, straight=False, band=band)
-        done = [c for c in smoothed.corners if c.source != "kept"]
+        done = [c for c in smoothed.corners if not c.source.startswith("kept")]
         record["methods"][method] = {
             **planned,
             "corners": len(smoothed.corners), "kept_sharp": len(smoothed.corners) - len(done),

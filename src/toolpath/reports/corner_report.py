@@ -124,8 +124,8 @@ def corners_table(rows: list[Mapping[str, str]], case: str, methods: list[str]) 
             r = found.get(m)
             if r is None:
                 cells.append("-")
-            elif r["source"] == "kept":
-                cells.append("kept sharp")
+            elif r["source"].startswith("kept"):
+                cells.append(r["source"].replace("kept:", "kept sharp:"))
             else:
                 cells.append(f"{float(r['curvature_after']):.3f} ({float(r['reduction_pct']):+.1f} % / "
                              f"{float(r['reduction_vs_method1_pct']):+.1f} %), error {float(r['error_mm']):.3f}")
