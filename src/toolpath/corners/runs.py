@@ -141,6 +141,7 @@ def run_case(name: str, methods: list[str], nets: tuple, settings: CornerSetting
         record["methods"][method] = {
             **planned,
             "corners": len(smoothed.corners), "kept_sharp": len(smoothed.corners) - len(done),
+            "answers": {source: sum(c.source == source for c in done) for source in sorted({c.source for c in done})},
             **reductions([c.reduction_pct for c in done], ""),
             **reductions([c.reduction_vs_method1_pct for c in done if math.isfinite(c.curvature_method1)],
                          "_vs_method1"),

@@ -44,7 +44,8 @@ def cases_table(metrics: Mapping) -> Table:
             if case == "dress" and method == "nurbs_pso":
                 bs += f" ({NURBS_CORNER_PAPER['dress_saved_vs_ref20_pct']})"
                 bz += f" ({NURBS_CORNER_PAPER['dress_saved_vs_ref21_pct']})"
-            table.add([case, METHOD_NAMES.get(method, method), f"{r['corners']} ({r['kept_sharp']})", reduction,
+            counts = f"{r['corners']} ({r['kept_sharp']}){_families(r)}"
+            table.add([case, METHOD_NAMES.get(method, method), counts, reduction,
                        _spread(r, "_vs_method1"), _num(r["max_error_mm"], ".3f"), "yes" if r["all_inside"] else "NO",
                        f"{r['time']:.3f}", _num(r.get("lower_bound"), ".3f"),
                        f"{r['time_saved_vs_g01_pct']:+.1f}", bs, bz, "yes" if r["within_limits"] else "NO"])
@@ -58,9 +59,19 @@ def cases_table(metrics: Mapping) -> Table:
         "The paper's figures (in brackets) are its W case's largest reduction and its dress case's time saved against "
         "its refs. 20 / 21, which are not the transitions we compare with. Times are the NURBS corner paper's planner "
         "(sensitive intervals at their lowest limit, S-curve ramps); the toppra bound has no jerk limit. "
-        "'Kept sharp': corners no curve met Eq. 7 on (too little room), planned with the controller blend.")
+        "'Kept sharp': corners no curve met Eq. 7 on (too little room), planned with the controller blend. "
+        "NURBS + PSO's swarm holds method 1 at delta_max and the dual Bezier as its first best, so it is never "
+        "sharper than either; in brackets after its count, the corners where one of them stayed best (method 2 was "
+        "not flatter there).")
     table.notes += _against_paper(metrics)
     return table
+
+
+def _families(r: Mapping) -> str:
+    """', 7 dual Bezier, 1 method 1' for the corners whose answer is a reference curve of PSO's swarm."""
+    kept = [f"{count} {source.removeprefix('pso: ')}" for source, count in r.get("answers", {}).items()
+            if source.startswith("pso: ") and count]
+    return f" [{', '.join(kept)}]" if kept else ""
 
 
 def _spread(r: Mapping, suffix: str) -> str:
@@ -127,11 +138,14 @@ def corners_table(rows: list[Mapping[str, str]], case: str, methods: list[str]) 
             elif r["source"].startswith("kept"):
                 cells.append(r["source"].replace("kept:", "kept sharp:"))
             else:
+                family = f", {r['source'].removeprefix('pso: ')}" if r["source"].startswith("pso: ") else ""
                 cells.append(f"{float(r['curvature_after']):.3f} ({float(r['reduction_pct']):+.1f} % / "
-                             f"{float(r['reduction_vs_method1_pct']):+.1f} %), error {float(r['error_mm']):.3f}")
+                             f"{float(r['reduction_vs_method1_pct']):+.1f} %), error {float(r['error_mm']):.3f}"
+                             f"{family}")
         table.add([vertex, f"{float(first['turn_deg']):.1f}", f"{float(first['curvature_before']):.3f}",
                    f"{float(first['curvature_method1']):.3f}", *cells])
-    table.notes.append("In brackets: the reduction against the arc within delta_max / against method 1. "
+    table.notes.append("In brackets: the reduction against the arc within delta_max / against method 1; a NURBS + PSO "
+                       "cell naming a curve family is a corner where that reference of the swarm stayed best. "
                        "The paper's Table 2 (its W "
                        "path, whose dimensions it does not give) reaches a largest reduction of "
                        f"{NURBS_CORNER_PAPER['w_max_reduction_pct']} %.")
