@@ -209,8 +209,10 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     """Two queued experiments (a learning-rate grid), two queue workers, metrics in `dvc exp show`,
     and one MLflow parent run per experiment named after it (both workers write one SQLite store)."""
     work, env, dvc = smoke_copy(tmp_path)
+    # the MLP and the rule only: the queue's plumbing is under test, and MCRL's training and export are the
+    # slow part of each experiment (the smoke repro above trains it)
     queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.common.lr=1e-3,5e-4",
-                        "train@gear"], work, env)
+                        "-S", "train.models=[mlp,rule]", "train@gear"], work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
     run(dvc + ["queue", "start", "-j", "2"], work, env)
