@@ -74,3 +74,14 @@ def test_each_dvc_invocation_has_its_own_parent_and_names_the_run_behind_a_skipp
     label_run = store.get_run(first)  # the first parent started with its dvc process and ended after its stages
     assert label_run.info.start_time == 1_000 and label_run.info.end_time > 1_000
     assert store.get_run(second).data.tags["up_to_date.label.gear"] == skipped["up_to_date.label.gear"]
+
+
+@pytest.mark.parametrize(("profile", "command"), [("default", "&& make repro`"),
+                                                  ("paper", "config +experiment=paper && .venv/bin/dvc repro`")])
+def test_the_parent_description_reproduces_its_profile(monkeypatch, tmp_path, profile, command):
+    """`make repro` composes the default profile, so another profile is reproduced with `dvc repro`."""
+    (tmp_path / "params.yaml").write_text(f"profile: {profile}\n")
+    monkeypatch.setenv("DVC_ROOT", str(tmp_path))
+    text = tracking._description("111-1")
+    assert f"profile `{profile}`" in text and command in text
+    assert ("+experiment=" in text) == (profile != "default")

@@ -198,10 +198,12 @@ def _description(key: str) -> str:
         import yaml
 
         profile = (yaml.safe_load(params.read_text(encoding="utf-8")) or {}).get("profile", "?")
-    return (f"Pipeline run `{key}`: profile `{profile}`, commit `{git_commit()}`. Reproduce: `git checkout "
-            f"{git_commit()} && make repro` (the default profile; another: `python -m toolpath.pipeline.config "
-            f"+experiment={profile}` first). Its configuration is this run's parameters and `params.yaml`; "
-            "each stage is a child run, each trained network a nested run with its MLflow model.")
+    reproduce = (f"`git checkout {git_commit()} && make repro`" if profile == "default" else
+                 f"`git checkout {git_commit()} && make install && .venv/bin/python -m toolpath.pipeline.config "
+                 f"+experiment={profile} && .venv/bin/dvc repro` (`make repro` composes the default profile)")
+    return (f"Pipeline run `{key}`: profile `{profile}`, commit `{git_commit()}`. Reproduce: {reproduce}. Its "
+            "configuration is this run's parameters and `params.yaml`; each stage is a child run, each trained "
+            "network a nested run with its MLflow model.")
 
 
 def _log_configuration(client: Any, run_id: str) -> None:
@@ -329,6 +331,9 @@ def _log_network(run_id: str, network: Any, example: Any) -> str:
     with mlflow.start_run(run_id=run_id, nested=True), warnings.catch_warnings():
         # MLflow's own GenAI types warn about their type hints on first import: nothing of ours
         warnings.filterwarnings("ignore", message=".*inferred as AnyType.*")
+        # torch.export of nn.RNN / nn.LSTM notes their _flat_weights were assigned during tracing: the saved
+        # program's logits equal the network's (tests/test_pipeline.py loads it back), so it is noise to a user
+        warnings.filterwarnings("ignore", message=r"The tensor attributes .*_flat_weights.* were assigned")
         info = mlflow.pytorch.log_model(network, name="model", signature=infer_signature(example, logits),
                                         input_example=np.asarray(example),
                                         pip_requirements=[f"torch>={torch.__version__.split('+')[0]}", "numpy"])

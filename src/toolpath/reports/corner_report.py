@@ -136,7 +136,7 @@ def corners_table(rows: list[Mapping[str, str]], case: str, methods: list[str]) 
             if r is None:
                 cells.append("-")
             elif r["source"].startswith("kept"):
-                cells.append(r["source"].replace("kept:", "kept sharp:"))
+                cells.append("kept sharp" + r["source"].removeprefix("kept"))  # 'kept: why' -> 'kept sharp: why'
             else:
                 family = f", {r['source'].removeprefix('pso: ')}" if r["source"].startswith("pso: ") else ""
                 cells.append(f"{float(r['curvature_after']):.3f} ({float(r['reduction_pct']):+.1f} % / "
