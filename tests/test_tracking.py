@@ -85,3 +85,16 @@ def test_the_parent_description_reproduces_its_profile(monkeypatch, tmp_path, pr
     text = tracking._description("111-1")
     assert f"profile `{profile}`" in text and command in text
     assert ("+experiment=" in text) == (profile != "default")
+
+
+def test_a_stage_run_records_system_metrics(mlflow_store, monkeypatch):
+    """CPU and memory are sampled while a stage works (MLflow's system metrics), so the run's chart shows them."""
+    import time
+
+    monkeypatch.setattr(tracking, "SYSTEM_METRICS_SECONDS", 0.2)
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("333-3", 1_000))
+    with tracking.stage_run("label@gear") as run:
+        time.sleep(1.5)
+    metrics = tracking.client().get_run(run.info.run_id).data.metrics
+    assert any(name.startswith("system/cpu_utilization") for name in metrics), sorted(metrics)
+    assert any(name.startswith("system/system_memory_usage") for name in metrics), sorted(metrics)

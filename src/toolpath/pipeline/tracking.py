@@ -243,6 +243,9 @@ def log_to_parent(metrics: Mapping[str, float], tags: Mapping[str, str]) -> str:
     return parent
 
 
+SYSTEM_METRICS_SECONDS = 5.0  # a stage's CPU / memory sampled this often (MLflow's system metrics; needs psutil)
+
+
 @contextlib.contextmanager
 def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) -> Iterator[Any]:
     """Open the child run of ``stage`` (e.g. ``label@gear``) under the pipeline's parent run, started
@@ -264,7 +267,8 @@ def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) 
                                                   tags=run_tags))
     failed = True
     try:
-        with mlflow.start_run(run_id=created.info.run_id) as run:
+        mlflow.set_system_metrics_sampling_interval(SYSTEM_METRICS_SECONDS)
+        with mlflow.start_run(run_id=created.info.run_id, log_system_metrics=True) as run:  # CPU, memory, disk
             if params:
                 mlflow.log_params({k: str(v)[:6000] for k, v in params.items()})
             yield run
