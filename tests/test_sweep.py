@@ -25,7 +25,7 @@ from toolpath.sweep.__main__ import main as sweep_main
 
 SMOKE = ["+experiment=smoke"]
 # the smoke windows train in a second; a short epoch range keeps the trials short too
-SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.replicates=2", "sweep.space.epochs.low=1",
+SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.replicates=1", "sweep.space.epochs.low=1",
          "sweep.space.epochs.high=3", "sweep.space.epochs.step=1"]
 
 
