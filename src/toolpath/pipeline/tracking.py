@@ -14,10 +14,9 @@ run spans its training (:func:`log_model_run`).  The parent carries the composed
 Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: every
 connection waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock (SQLite's busy timeout), a
 file lock serialises opening the store (a new store is migrated on first use), and the creations
-that can still race (the experiment, a parent run) are retried.  We keep
-one store rather than a store per worker merged afterwards: MLflow writes are a handful of short
-transactions per stage, so waiting costs little, and ``mlflow ui`` sees every run at once.  Past a
-few writers, point ``MLFLOW_TRACKING_URI`` at PostgreSQL (see the README).
+that can still race (the experiment, a parent run) are retried.  One store, not one per worker merged
+afterwards: MLflow writes are a handful of short transactions per stage, so waiting costs little, and
+``mlflow ui`` sees every run at once.  Past a few writers, use PostgreSQL (see the README).
 """
 
 from __future__ import annotations
