@@ -26,6 +26,7 @@ from toolpath.geometry.deviation import point_to_polyline
 
 # (A segments) x (B segments) distances held at once when batching; chunks keep memory bounded
 _MASK_BUDGET = 4_000_000
+WHOLE_PAIRS = 100_000  # pieced_hausdorff measures polylines with fewer point pairs whole
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -194,6 +195,38 @@ def directed_hausdorff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def hausdorff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The two-sided distance ``max(h(A, B), h(B, A))`` between polylines, exact on segments; (...,)."""
     return np.maximum(directed_hausdorff(a, b), directed_hausdorff(b, a))
+
+
+def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32) -> float:
+    """:func:`hausdorff` of two single polylines (n, 2) and (m, 2), exact, for long ones that run near each
+    other (an arc read as fine chords and the lines it replaced): each direction in pieces of ``piece``
+    segments, each against the stretch of the other that can hold its nearest points.
+
+    Why the stretch is enough.  Along a segment of length ``L`` the distance to the other polyline is
+    1-Lipschitz, so it never exceeds ``(f0 + f1 + L) / 2`` (``f`` at the segment's ends); a segment of the
+    other polyline nearest to some point of the piece lies within the largest such bound of that point,
+    hence meets the piece's bounding box grown by it.  The stretch runs from the first to the last segment
+    that does, so it holds every segment that can be nearest."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if len(a) * len(b) <= WHOLE_PAIRS:
+        return float(hausdorff(a, b))
+    return max(_directed_pieced(a, b, piece), _directed_pieced(b, a, piece))
+
+
+def _directed_pieced(a: np.ndarray, b: np.ndarray, piece: int) -> float:
+    if len(a) < 2 or len(b) < 2:
+        return float(directed_hausdorff(a, b))
+    low_b, high_b = np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:])
+    worst = 0.0
+    for start in range(0, len(a) - 1, piece):
+        part = a[start:start + piece + 1]
+        ends = point_to_polyline(part, b)
+        reach = float(((ends[:-1] + ends[1:] + np.hypot(*np.diff(part, axis=0).T)) / 2.0).max())
+        low, high = part.min(axis=0) - reach, part.max(axis=0) + reach
+        near = np.flatnonzero(np.all((low_b <= high) & (high_b >= low), axis=1))
+        stretch = b[near[0]:near[-1] + 2] if len(near) else b
+        worst = max(worst, float(directed_hausdorff(part, stretch)))
+    return worst
 
 
 def moved_hausdorff(old: list[np.ndarray], new: list[np.ndarray], band: int = 2) -> np.ndarray:

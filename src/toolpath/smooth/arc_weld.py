@@ -10,13 +10,14 @@ at most.  The arc replaces lines ``L(i+1)..L(q)`` (points ``i..q``): the first b
 always a G1 of the run, gets an explicit ``G1`` (after its N word) if it relied on the modal one.  Programs that use
 G90.1 (absolute arc centres) are left alone.
 
-The fit.  The arc passes through the run's first and last point exactly (its centre on their
-perpendicular bisector, placed by least squares on the points between), turns one way by less than a
-full circle, and is grown one point at a time while it stays within the budget.  The budget is the
-tolerance less what writing it costs: half a unit of the last decimal on the end point and on I/J
-(the reader blends the two radii) and the reader's chord tolerance.  While the arc grows it is held
-to an O(n) upper bound of the two-sided distance (:func:`arc_bound`); :func:`weld_arcs` then re-reads
-its output and measures every arc exactly (the Hausdorff distance of the polylines read back).
+The fit.  Each arc passes through its first and last point (its centre on their perpendicular
+bisector), turns one way by less than a full circle, and lies within the budget: the tolerance less the
+reader's chord tolerance, measured on the arc as it is written (end point and I/J rounded to the line's
+decimals, the reader's spiral between the two radii) by an upper bound of the two-sided distance
+(:func:`spiral_bound`).  Which arcs: every start and end screened at once, then the breaks that leave
+the fewest lines by dynamic programming (:mod:`toolpath.smooth.arc_search`); each chosen arc is measured
+again with its numbers as formatted, and :func:`weld_arcs` re-reads its output and measures every arc
+exactly (the Hausdorff distance of the polylines read back); an arc that fails is kept as its lines.
 """
 
 from __future__ import annotations
@@ -33,14 +34,16 @@ from toolpath.gcode.lexer import tokenize
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
-from toolpath.geometry.hausdorff import hausdorff
+from toolpath.geometry.hausdorff import pieced_hausdorff
 from toolpath.labels.windows import feed_runs
-from toolpath.smooth.rewrite import line_decimals, switch_stable
+from toolpath.smooth.arc_search import Chain, fewest_blocks
+from toolpath.smooth.rewrite import decimals_of, line_decimals, switch_stable
 
-MIN_SEGMENTS = 3     # an arc replaces at least three G1 lines
-LOOKAHEAD = 8        # growth tries this many longer arcs past the first that fails (the fit moves as it grows)
-CHECK_CHORD = 1e-4   # mm: chords of the arcs the fit and the re-read check measure (within this of the arc)
+MIN_SEGMENTS = 2     # an arc replaces at least three G1 lines
+LOOKAHEAD = 8        # a start is measured further while an arc fits within this many ends of its block's edge
+CHECK_CHORD = 2e-5   # mm: chords of the arcs the fit and the re-read check measure (within this of the arc)
 MAX_SEGMENTS = 200   # growth stops here: fitting is quadratic in the arc's length
+MOTION_CODES = {0.0, 1.0, 2.0, 3.0, 5.0, 5.1, 5.2, 33.0, 33.1, 73.0, 76.0}  # with G38.x and G80-G89
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
 _LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
@@ -96,55 +99,48 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
     return _Arc(centre + origin, radius, sweep)
 
 
-def arc_bound(original: np.ndarray, arc: _Arc) -> float:
-    """An upper bound, in O(n), of the two-sided distance between the original polyline and the arc:
-    the vertices' largest distance off the circle plus the largest sagitta of a segment on it.  It
-    holds when the vertices turn one way about the centre (inf otherwise): then every point of a
-    segment lies within its ends' radial error plus its sagitta of the arc, and every point of the
-    arc within that of the segment whose vertices bracket its angle."""
-    offset = original - arc.centre
-    angles = np.unwrap(np.arctan2(offset[:, 1], offset[:, 0]))
-    steps = np.diff(angles)
-    if not (np.all(steps * np.sign(arc.sweep) > 0)) or np.abs(steps).max() >= math.pi / 2:
-        return math.inf
-    radial = float(np.abs(np.hypot(offset[:, 0], offset[:, 1]) - arc.radius).max())
-    half = np.hypot(*np.diff(original, axis=0).T) / 2.0
-    sagitta = float((arc.radius - np.sqrt(np.maximum(arc.radius ** 2 - half ** 2, 0.0))).max())
-    return radial + sagitta
-
-
 def _bare(raw: str) -> bool:
     """No block delete and no comment: a line an arc may replace without dropping what a controller reads
     (a ``/`` line runs or not by the switch; a comment may be a MSG or DEBUG the operator sees)."""
     return not any(c in raw for c in "/(;")
 
 
-def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int]]:
-    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are consecutive plain G1
-    lines in absolute mode, with no block delete or comment, an F word only on the first, none read past
-    blind (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands after ``L(i)..L(e)`` the
-    same with the block-delete switch on or off:
-    (xy, lines, i, e)."""
+def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int, bool]]:
+    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are plain G1 lines in
+    absolute mode, consecutive from ``L(i+1)`` on (lines before it that leave X and Y where they are, a
+    plunge, stay), with no block delete or comment, an F word only on the first, none read past blind
+    (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands before and after each the same
+    with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``: the line
+    after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's)."""
     movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
     stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
     out = []
     for xy, lines in feed_runs(program):
-        ok = np.zeros(len(lines), bool)
+        replaceable, joined = np.zeros(len(lines), bool), np.zeros(len(lines), bool)
         for k in range(1, len(lines)):
             line = int(lines[k])
-            ok[k] = bool(movable[line - 1]) and line == int(lines[k - 1]) + 1 and program.states[line].absolute \
-                and bool(stable[line]) and bool(stable[int(lines[k - 1])])
+            replaceable[k] = bool(movable[line - 1]) and program.states[line].absolute \
+                and bool(stable[line]) and bool(stable[line - 1])
+            joined[k] = line == int(lines[k - 1]) + 1
         k = 1
         while k < len(lines):
-            if not ok[k]:
+            if not replaceable[k]:
                 k += 1
                 continue
-            i = k - 1
-            while k < len(lines) and ok[k] and (k == i + 1 or not _has_feed(program, int(lines[k]))):
+            i, k = k - 1, k + 1
+            while k < len(lines) and replaceable[k] and joined[k] and not _has_feed(program, int(lines[k])):
                 k += 1
-            out.append((xy, lines, i, k - 1))
+            after = int(lines[k - 1]) + 1
+            out.append((xy, lines, i, k - 1, after > len(program.lines) or _sets_motion(program, after)))
     return out
+
+
+def _sets_motion(program: Program, line: int) -> bool:
+    """Whether ``line`` holds a motion-mode word (G0-G3, G5.x, G33.x, G38.x, G73, G76, G80-G89)."""
+    words = tokenize(program.lines[line - 1].rstrip("\r\n"), program.source, line).words
+    return any(w.letter == "G" and (w.value in MOTION_CODES or 80 <= w.value <= 89 or int(w.value) == 38)
+               for w in words)
 
 
 def _has_feed(program: Program, line: int) -> bool:
@@ -175,28 +171,14 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     records: list[ArcRecord] = []
     written: dict[int, tuple] = {}  # per arc, what wrote it
     kept_as_lines = 0
-    for xy, lines, first, last in _chains(current, switch_stable(current, read_options, start)):
+    for xy, lines, first, last, open_end in _chains(current, switch_stable(current, read_options, start)):
         original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
-        i = first
-        while i + MIN_SEGMENTS <= last - 1:  # the chain's last line stays a G1 after the arcs
-            best, misses = None, 0
-            for q in range(i + MIN_SEGMENTS, min(last - 1, i + MAX_SEGMENTS) + 1):
-                found = _try(current, xy, lines, original_xy[i - first:q - first + 1], i, q, tolerance)
-                if found is None:
-                    misses += 1
-                    if misses > LOOKAHEAD:
-                        break
-                    continue
-                best, misses = (q, *found), 0
-            if best is None:
-                i += 1
-                continue
-            q, arc, deviation = best
+        for i, q, arc, deviation in _fewest_lines(current, xy, lines, original_xy, first, last, open_end,
+                                                  tolerance):
             record = ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation)
             written[id(record)] = (xy, lines, i, q, arc)
             _write(current, xy, lines, i, q, arc, edits)
             records.append(record)
-            i = q
     text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
     while records and (failed := _verify(text, current, original, records, tolerance, read_options, start)):
         # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
@@ -210,62 +192,81 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     return text, records, sorted(edits), None, kept_as_lines
 
 
-def _try(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float):
-    arc = fit_arc(xy[i:q + 1])
-    if arc is None:
-        return None
-    found = _within(program, lines, original_xy, q, tolerance, arc)
-    if found is None and (closer := minimax_arc(xy[i:q + 1], arc)) is not None:
-        found = _within(program, lines, original_xy, q, tolerance, closer)
-    return found
+def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: int, open_end: bool,
+                  tolerance: float):
+    """The arcs over points ``first..last`` of a chain that leave the fewest lines
+    (:func:`toolpath.smooth.arc_search.fewest_blocks`), each measured again as it is written.  The
+    chain's last line stays a G1 unless ``open_end`` (the line after an arc must set its own motion mode,
+    or be one the tool may write ``G1`` on)."""
+    span = lines[first:last + 1].astype(np.int64)
+    inch = program.states.inch[span - 1].astype(bool)
+    before = np.append(span[1:] - 1, span[-1])  # an arc from point k is written on line L(k+1)
+    chain = Chain(xy[first:last + 1], original_xy, program_coordinates(program, span, xy[first:last + 1]),
+                  np.where(inch, MM_PER_INCH, 1.0), decimals_of(program, span),
+                  np.where(program.states.inch[before - 1].astype(bool), MM_PER_INCH, 1.0))
+    end = (last if open_end else last - 1) - first
+    chosen = []
+    for i, q, centre in fewest_blocks(chain, end, tolerance - 2.0 * CHECK_CHORD, MIN_SEGMENTS, MAX_SEGMENTS,
+                                      MAX_RADIUS, LOOKAHEAD):
+        arc = fit_arc(xy[first + i:first + q + 1], centre=centre)
+        found = None if arc is None else _within(program, xy, lines, original_xy[i:q + 1], first + i, first + q,
+                                                 tolerance, arc)
+        if found is not None:  # the screen rounds as NumPy does; the line is written as Python formats
+            chosen.append((first + i, first + q, *found))
+    return chosen
 
 
-def minimax_arc(points: np.ndarray, arc: _Arc) -> _Arc | None:
-    """The arc through the same two end points whose largest radial miss of the points between is least
-    (a grid over the centre's place on the chord's bisector around ``arc``'s): the least-squares centre
-    spends the band evenly, this one spends it where the points need it."""
-    origin, chord = points[0], points[-1] - points[0]
-    length = float(np.hypot(*chord))
-    mid, normal = chord / 2.0, np.array([-chord[1], chord[0]]) / length
-    t0 = float((arc.centre - origin - mid) @ normal)
-    t = t0 + np.linspace(-1.0, 1.0, 161)[:, None] * 0.05 * (abs(t0) + length)  # (T, 1)
-    centres = mid + t * normal  # (T, 2), local coordinates
-    inner = points[1:-1] - origin
-    radii = np.hypot(centres[:, 0], centres[:, 1])
-    miss = np.abs(np.hypot(inner[None, :, 0] - centres[:, None, 0], inner[None, :, 1] - centres[:, None, 1])
-                  - radii[:, None]).max(axis=1)
-    best = int(np.argmin(miss))
-    return fit_arc(points, centre=centres[best] + origin)
-
-
-def _within(program: Program, lines, original_xy, q: int, tolerance: float, arc: _Arc):
-    line = int(lines[q])
-    scale = MM_PER_INCH if program.states[line].inch else 1.0
-    rounding = 0.5 * 10.0 ** -line_decimals(program, line) * scale * math.sqrt(2.0)
-    # the written arc moves by the end point's and I/J's rounding; the check reads it as chords
-    budget = tolerance - 2.0 * rounding - 2.0 * CHECK_CHORD
-    if budget <= 0:
-        return None
-    bound = ray_bound(original_xy, arc)  # O(n); the exact figure comes from the re-read check
+def _within(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float, arc: _Arc):
+    # measured on the arc as written (end point and I/J rounded) and read back (a spiral between the two
+    # radii); the re-read check reads it as chords within CHECK_CHORD and adds that to what it measures
+    budget = tolerance - 2.0 * CHECK_CHORD
+    _, end, centre = _as_written(program, xy, lines, i, q, arc)
+    bound = spiral_bound(original_xy, xy[i], end, centre, arc.sweep < 0)  # O(n); exact figure: the re-read check
     return (arc, bound) if bound <= budget else None
 
 
-def ray_bound(original: np.ndarray, arc: _Arc) -> float:
+def _as_written(program: Program, xy, lines, i: int, q: int, arc: _Arc) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """The numbers :func:`_write` writes for the arc over ``L(i+1)..L(q)`` (X, Y, I, J), and the end
+    point and centre (mm) a reader takes from them."""
+    first, end = int(lines[i + 1]), int(lines[q])
+    decimals = line_decimals(program, end)
+    scale = MM_PER_INCH if program.states[first - 1].inch else 1.0
+    target = program_coordinates(program, end, xy[q])
+    texts = [fmt(float(v), decimals) for v in (*target, *((arc.centre - xy[i]) / scale))]
+    written = np.array([float(t) for t in texts])
+    return texts, xy[q] + (written[:2] - target) * scale, xy[i] + written[2:] * scale
+
+
+def spiral_bound(original: np.ndarray, start: np.ndarray, end: np.ndarray, centre: np.ndarray,
+                 clockwise: bool) -> float:
     """An upper bound, in O(n), of the two-sided (Frechet, hence Hausdorff) distance between the original
-    polyline and the arc, tighter than :func:`arc_bound`: when the vertices turn one way about the centre
-    (inf otherwise), pair every point of the polyline with the arc's point on the same ray from the centre.
-    Along a segment the distance to the centre is convex, so the largest ``|R - rho|`` of a segment is at
-    an end or at its nearest point to the centre: ``max(|d_a - R|, |d_b - R|, R - d_min)``."""
-    offset = original - arc.centre
+    polyline and the arc from ``start`` to ``end`` about ``centre`` as a reader runs it (its radius blended
+    linearly with the angle from the start's to the end's: rounding makes them differ), when the vertices
+    turn one way about the centre (inf otherwise).  Every point of the polyline is paired with the arc's
+    point on the same ray from the centre.  Along a segment the distance ``rho`` to the centre is convex and
+    the arc's radius ``r`` lies between its values at the segment's ends, so on a segment
+    ``r - rho <= max(r_a, r_b) - rho_min`` and ``rho - r <= max(d_a, d_b) - min(r_a, r_b)``; with equal radii
+    this is the exact largest radial gap of each segment."""
+    sign = -1.0 if clockwise else 1.0
+    offset = original - centre
     angles = np.unwrap(np.arctan2(offset[:, 1], offset[:, 0]))
     steps = np.diff(angles)
-    if not (np.all(steps * np.sign(arc.sweep) > 0)) or np.abs(steps).max() >= math.pi / 2:
+    if not (np.all(steps * sign > 0)) or np.abs(steps).max() >= math.pi / 2:
         return math.inf
+    a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
+    a1 = math.atan2(end[1] - centre[1], end[0] - centre[0])
+    r0, r1 = math.hypot(*(start - centre)), math.hypot(*(end - centre))
+    sweep = ((a1 - a0) * sign) % (2.0 * math.pi) or 2.0 * math.pi
+    lead = (sign * (angles[0] - a0) + math.pi) % (2.0 * math.pi) - math.pi  # the first vertex's angle past the start
+    along = np.clip((lead + sign * (angles - angles[0])) / sweep, 0.0, 1.0)
+    r = r0 + (r1 - r0) * along
     d = np.hypot(offset[:, 0], offset[:, 1])
     a, u = offset[:-1], np.diff(offset, axis=0)
     t = np.clip(-np.einsum("ij,ij->i", a, u) / np.maximum(np.einsum("ij,ij->i", u, u), 1e-300), 0.0, 1.0)
     nearest = np.hypot(a[:, 0] + t * u[:, 0], a[:, 1] + t * u[:, 1])
-    return float(max(np.abs(d - arc.radius).max(), (arc.radius - nearest).max()))
+    inside = np.maximum(r[:-1], r[1:]) - nearest
+    outside = np.maximum(d[:-1], d[1:]) - np.minimum(r[:-1], r[1:])
+    return float(max(np.abs(d - r).max(), inside.max(), outside.max()))
 
 
 def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
@@ -274,21 +275,18 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
     raw = program.lines[first - 1]
     body = raw.rstrip("\r\n")
     words = tokenize(body, program.source, first).words
-    decimals = line_decimals(program, end)
-    state = program.states[first - 1]
-    scale = MM_PER_INCH if state.inch else 1.0
-    target = program_coordinates(program, end, xy[q])
-    centre = (arc.centre - xy[i]) / scale
+    x, y, i_text, j_text = _as_written(program, xy, lines, i, q, arc)[0]
     parts = [f"N{w.text}" for w in words if w.letter == "N"]
-    parts += [f"G{2 if arc.sweep < 0 else 3}", f"X{fmt(target[0], decimals)}", f"Y{fmt(target[1], decimals)}",
-              f"I{fmt(centre[0], decimals)}", f"J{fmt(centre[1], decimals)}"]
+    parts += [f"G{2 if arc.sweep < 0 else 3}", f"X{x}", f"Y{y}", f"I{i_text}", f"J{j_text}"]
     parts += [f"F{w.text}" for w in words if w.letter == "F"]
     edits[first] = " ".join(parts) + raw[len(body):]
     for line in range(first + 1, end + 1):
         edits[line] = ""
-    after = end + 1  # a G1 of the chain: it must not inherit the arc's motion mode
+    after = end + 1  # it must not inherit the arc's motion mode
+    if after > len(program.lines):
+        return
     following = program.lines[after - 1]
-    if not any(w.letter == "G" for w in tokenize(following.rstrip("\r\n"), program.source, after).words):
+    if not _sets_motion(program, after):
         # after a leading N word, where a controller expects it (LinuxCNC refuses an N in mid-line)
         number = _LEADING_N.match(following)
         edits.setdefault(after, following[:number.end()] + "G1 " + following[number.end():])
@@ -315,5 +313,5 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
         # the chords lie within CHECK_CHORD of the arc the controller runs: the bound of its distance
-        r.deviation_mm = float(hausdorff(original.points[a:b + 1, :2], new)) + CHECK_CHORD
+        r.deviation_mm = pieced_hausdorff(original.points[a:b + 1, :2], new) + CHECK_CHORD
     return [r for r in records if r.deviation_mm > tolerance + 1e-9]

@@ -1,0 +1,253 @@
+"""Which arcs a chain of G1 points allows, found for many starts and ends at once (issue 44: ``--arcs``
+uses the whole band and writes the fewest lines).
+
+For a start ``i`` and every end ``q = i + j`` within a block of ``K`` points, two arcs through both ends
+are tried: the centre on the chord's bisector nearest (least squares, algebraically) to the points
+between, and the one whose largest radial miss of those points is least (a golden-section search along
+the bisector).  Each is measured as :func:`toolpath.smooth.arc_weld.spiral_bound` measures one arc: with
+its end point and centre rounded as they are written, the reader's spiral between the two radii, every
+original vertex and segment paired with the arc along rays from the centre.  The arrays are
+``(starts, ends, points)``; a start whose arcs still fit near the block's edge is measured again with a
+block twice as long.  The fewest blocks then follow by dynamic programming over the ends
+(:func:`fewest_blocks`).  Everything here is a screen: the arcs chosen are measured again one by one with
+the numbers as formatted, and the output is re-read and measured exactly by the caller.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+BLOCK = 32             # ends measured per start at first (doubled while arcs fit near the edge)
+CELLS = 64 * 32 * 33   # starts x ends x points per batch: about 1 MB an array
+STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
+                       # measure fewer ends inside a long arc (each measures only past the last count)
+GRID = 17              # the minimax centre's coarse search along the bisector, then
+GOLDEN_STEPS = 12      # golden-section steps in the best cell (its interval shrinks 0.618 a step)
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@dataclass(frozen=True)
+class Chain:
+    """A chain's points and how their numbers are written (per point ``q``, for an arc ending there)."""
+
+    xy: np.ndarray          # (n, 2) mm, the points the arcs pass through (the current path)
+    original: np.ndarray    # (n, 2) mm, the path the arcs are measured against
+    target: np.ndarray      # (n, 2) the X/Y numbers of each point in its line's units and offsets
+    end_scale: np.ndarray   # (n,) mm per unit of those numbers
+    decimals: np.ndarray    # (n,) decimals an arc ending at the point is written with
+    centre_scale: np.ndarray  # (n,) mm per unit of I/J for an arc starting at the point
+
+
+def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_segments: int,
+                  max_radius: float, lookahead: int) -> list[tuple[int, int, np.ndarray]]:
+    """The arcs ``(i, q, centre)`` over points ``0..len-1`` of ``chain`` that leave the fewest blocks (an
+    arc or a G1 line each), no arc ending past point ``end``, each within ``budget`` by the screen.
+
+    Dynamic programming in the order of the starts: every arc into point ``i`` starts before it, so when
+    the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed."""
+    n = len(chain.xy)
+    blocks = np.full(n, n + 1, np.int64)
+    blocks[0] = 0
+    from_start = np.full(n, -1, np.int64)  # -1: reached by a G1 line from the point before
+    centres = np.zeros((n, 2))
+    starts = np.arange(0, max(end - min_segments + 1, 0))
+    for lo in range(0, len(starts), STARTS_PER_STEP):
+        chunk = starts[lo:lo + STARTS_PER_STEP]
+        # No start of the chunk can bring an end below ``known`` under the fewest blocks already found there:
+        # each start's own count is at least the least count over the chunk, so those ends are not measured.
+        least = blocks[max(chunk[0] - 1, 0):chunk[-1] + 1].min()  # the point before reaches in by a line
+        above = np.flatnonzero(blocks[chunk[0]:] > least + 1)
+        known = chunk[0] + (int(above[0]) if len(above) else n - chunk[0])
+        for i, fits, centre in _measured(chain, chunk, end, budget, min_segments, max_segments, max_radius,
+                                         lookahead, known):
+            if i > 0 and blocks[i - 1] + 1 < blocks[i]:
+                blocks[i], from_start[i] = blocks[i - 1] + 1, -1
+            ends = np.flatnonzero(fits) + 1 + i
+            better = ends[blocks[i] + 1 < blocks[ends]]
+            blocks[better], from_start[better] = blocks[i] + 1, i
+            centres[better] = centre[better - i - 1]
+    for k in range(max(int(starts[-1]) + 1 if len(starts) else 1, 1), n):
+        if blocks[k - 1] + 1 < blocks[k]:
+            blocks[k], from_start[k] = blocks[k - 1] + 1, -1
+    chosen, k = [], n - 1
+    while k > 0:
+        i = int(from_start[k])
+        if i < 0:
+            k -= 1
+        else:
+            chosen.append((i, k, centres[k].copy()))
+            k = i
+    return chosen[::-1]
+
+
+def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segments: int, max_segments: int,
+              max_radius: float, lookahead: int, known: int):
+    """Per start of ``chunk``, in order: (start, fits per end i+1.., centres), each start measured with a
+    block long enough that no arc fits within ``lookahead`` of its edge (or the longest allowed).  Ends
+    before ``known`` are left unmeasured (False) unless they lie within ``lookahead`` of the edge, and a
+    start's first block already reaches ``lookahead`` past ``known``: inside a long arc each start then
+    measures only the few ends that could lower a count."""
+    results: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    size = np.full(len(chunk), BLOCK)
+    while np.any(grow := (size < known - chunk + lookahead + 1) & (size < max_segments)):
+        size[grow] *= 2
+    size = np.minimum(np.minimum(size, max_segments), np.maximum(end - chunk, 1))
+    todo = np.ones(len(chunk), bool)
+    while todo.any():
+        block = int(size[todo].min())
+        rows = np.flatnonzero(todo & (size == block))
+        lo = 0
+        while lo < len(rows):
+            hi = lo + 1  # as many starts as fit in CELLS, each measured from its part's first end
+            while hi < len(rows):
+                ends = block - _first(known, chunk[rows[hi]], block, lookahead, max_segments) + 1
+                if (hi + 1 - lo) * ends * (block + 1) > CELLS:
+                    break
+                hi += 1
+            part = chunk[rows[lo:hi]]
+            first = _first(known, part[-1], block, lookahead, max_segments)
+            fits, centre = _measure(chain, part, first, block, end, budget, min_segments, max_radius)
+            reach = np.where(fits.any(axis=1), block - np.argmax(fits[:, ::-1], axis=1), 0)
+            edge = (reach > block - lookahead - 1) & (block < max_segments) & (part + block < end)
+            for k, (row, start) in enumerate(zip(rows[lo:hi], part, strict=True)):
+                if edge[k]:
+                    size[row] = min(2 * block, max_segments, max(end - int(start), 1))
+                else:
+                    todo[row] = False
+                    results[int(start)] = fits[k], centre[k]
+            lo = hi
+    for i in chunk.tolist():
+        yield (i, *results[i])
+
+
+def _first(known: int, start: int, block: int, lookahead: int, max_segments: int) -> int:
+    """The first end (``j``) a start measures: from ``known`` on, or the ``lookahead`` ends at the edge
+    (no edge once the block is the longest allowed)."""
+    edge = block - lookahead - 1 if block < max_segments else block
+    return max(1, min(known - int(start), edge))
+
+
+def _measure(chain: Chain, starts: np.ndarray, first: int, size: int, end: int, budget: float,
+             min_segments: int, max_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each start and each end ``i + j`` (j = 1..size): whether an arc fits, and its centre (mm); ends
+    with ``j < first`` are not measured (they do not fit)."""
+    fits = np.zeros((len(starts), size), bool)
+    centre = np.zeros((len(starts), size, 2))
+    fits[:, first - 1:], centre[:, first - 1:] = _measure_ends(chain, starts, np.arange(first, size + 1), end,
+                                                               budget, min_segments, max_radius)
+    return fits, centre
+
+
+def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, end: int, budget: float, min_segments: int,
+                  max_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each start and each end ``i + j``: whether an arc fits, and its centre (mm)."""
+    size = int(j[-1])
+    index = np.minimum(starts[:, None] + np.arange(size + 1)[None, :], len(chain.xy) - 1)  # (B, K+1)
+    origin = chain.xy[starts][:, None, :]
+    p = chain.xy[index] - origin  # local: no cancellation far from the machine origin
+    o = chain.original[index] - origin
+    chord = p[:, j]  # (B, J, 2): the end of each candidate
+    length = np.hypot(chord[..., 0], chord[..., 1])
+    normal = np.stack([-chord[..., 1], chord[..., 0]], axis=-1) / np.maximum(length, 1e-300)[..., None]
+    inner = (np.arange(size + 1)[None, :] >= 1) & (np.arange(size + 1)[None, :] < j[:, None])  # (K, K+1)
+    # |p - c|^2 - |c|^2 = v - 2 p.m - 2 t p.n  with c = m + t n on the bisector: linear in t
+    along = np.einsum("bkd,bjd->bjk", p, normal)  # p_k . n_j
+    miss = np.einsum("bkd,bkd->bk", p, p)[:, None, :] - np.einsum("bkd,bjd->bjk", p, chord)
+    a = np.where(inner, 2.0 * along, 0.0)
+    least = np.einsum("bjk,bjk->bj", a, miss) / np.maximum(np.einsum("bjk,bjk->bj", a, a), 1e-300)
+    half = length / 2.0
+    minimax = _golden(a, miss, inner, least, half)
+    fits = np.zeros(least.shape, bool)
+    centre = np.zeros(least.shape + (2,))
+    for t in (minimax, least):  # least squares wins where both fit
+        c = chord / 2.0 + t[..., None] * normal
+        bound = _bound(chain, starts, index, p, o, c, j)
+        radius = np.hypot(c[..., 0], c[..., 1])
+        ok = (bound <= budget) & (radius <= max_radius) & np.isfinite(bound)
+        fits |= ok
+        centre[ok] = c[ok]
+    q = starts[:, None] + j[None, :]
+    fits &= (j[None, :] >= min_segments) & (q <= end) & (length > 0)
+    return fits, centre + origin
+
+
+def _golden(a, miss, inner, least, half) -> np.ndarray:
+    """Per candidate, the place ``t`` on the bisector where the largest radial miss of the points between,
+    ``max | |p - c| - |c| |`` with ``|p - c|^2 = |c|^2 + v - 2 p.m - 2 t p.n``, is least: searched within 5 %
+    of the chord around ``least``."""
+    width = 0.05 * (np.abs(least) + 2.0 * half)
+
+    def worst(t):
+        radius2 = (half ** 2 + t ** 2)[..., None]
+        err = np.abs(np.sqrt(np.maximum(radius2 + miss - t[..., None] * a, 0.0)) - np.sqrt(radius2))
+        return np.where(inner, err, 0.0).max(axis=-1)
+
+    # a coarse grid first (the largest miss need not have one minimum), then golden section in its best cell
+    grid = np.linspace(-1.0, 1.0, GRID)
+    coarse = np.stack([worst(least + g * width) for g in grid], axis=-1)
+    centre = least + grid[np.argmin(coarse, axis=-1)] * width
+    cell = width * 2.0 / (GRID - 1)
+    lo, hi = centre - cell, centre + cell
+
+    x1, x2 = hi - _GOLDEN * (hi - lo), lo + _GOLDEN * (hi - lo)
+    f1, f2 = worst(x1), worst(x2)
+    for _ in range(GOLDEN_STEPS):
+        left = f1 < f2
+        hi = np.where(left, x2, hi)
+        lo = np.where(left, lo, x1)
+        x2n = np.where(left, x1, lo + _GOLDEN * (hi - lo))
+        x1n = np.where(left, hi - _GOLDEN * (hi - lo), x2)
+        x1, x2 = x1n, x2n
+        fnew = worst(np.where(left, x1, x2))
+        f1, f2 = np.where(left, fnew, f2), np.where(left, f1, fnew)
+    return np.where(f1 < f2, x1, x2)
+
+
+def _bound(chain: Chain, starts, index, p, o, c, j: np.ndarray) -> np.ndarray:
+    """:func:`toolpath.smooth.arc_weld.spiral_bound` of every candidate (B, J), on the arc as written."""
+    size = int(j[-1])
+    k = np.arange(size + 1)
+    upto = k[None, :] <= j[:, None]  # (K, K+1): the vertices of candidate j
+    steps = k[None, :-1] < j[:, None]  # (K, K): its segments
+    qi = index[:, j]
+    decimals = chain.decimals[qi]
+    power = 10.0 ** decimals
+    centre_scale = chain.centre_scale[starts][:, None, None]
+    cw = np.round(c / centre_scale * power[..., None]) / power[..., None] * centre_scale  # I/J as written
+    target = chain.target[qi]
+    written_end = p[:, j] + (np.round(target * power[..., None]) / power[..., None] - target) \
+        * chain.end_scale[qi][..., None]
+    s = -cw  # the start (local 0) from the centre
+    e = written_end - cw
+    off = o[:, None, :, :] - cw[:, :, None, :]  # (B, K, K+1, 2)
+    d = np.hypot(off[..., 0], off[..., 1])
+    a, u = off[..., :-1, :], np.diff(off, axis=-2)
+    cross = a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]  # a x b == a x (b - a)
+    dot = np.einsum("...d,...d->...", a, off[..., 1:, :])
+    pa, pb = p[:, None, :-1, :] - c[:, :, None, :], p[:, None, 1:, :] - c[:, :, None, :]
+    turn = pa[..., 0] * pb[..., 1] - pa[..., 1] * pb[..., 0]  # the fitted points' turns about the exact centre
+    sign = np.sign(turn[..., 0])  # every candidate has its first segment
+    one_way = np.all(~steps | ((turn * sign[..., None] > 0) & (cross * sign[..., None] > 0) & (dot > 0)
+                               & (np.einsum("...d,...d->...", pa, pb) > 0)), axis=-1)
+    step_angle = np.where(steps, np.arctan2(cross, dot) * sign[..., None], 0.0)
+    theta = np.concatenate([np.zeros(step_angle.shape[:-1] + (1,)), np.cumsum(step_angle, axis=-1)], axis=-1)
+    lead = np.arctan2(s[..., 0] * off[..., 0, 1] - s[..., 1] * off[..., 0, 0],
+                      np.einsum("...d,...d->...", s, off[..., 0, :])) * sign
+    sweep = np.mod(np.arctan2(s[..., 0] * e[..., 1] - s[..., 1] * e[..., 0], np.einsum("...d,...d->...", s, e))
+                   * sign, 2.0 * math.pi)
+    sweep = np.where(sweep <= 0.0, 2.0 * math.pi, sweep)
+    total = theta[:, np.arange(len(j)), j]  # each candidate's turn from its first vertex to its last
+    one_way &= total < 2.0 * math.pi - 1e-9
+    frac = np.clip((lead[..., None] + theta) / sweep[..., None], 0.0, 1.0)
+    r0, r1 = np.hypot(s[..., 0], s[..., 1]), np.hypot(e[..., 0], e[..., 1])
+    r = r0[..., None] + (r1 - r0)[..., None] * frac
+    t = np.clip(-np.einsum("...d,...d->...", a, u) / np.maximum(np.einsum("...d,...d->...", u, u), 1e-300), 0.0, 1.0)
+    nearest = np.hypot(a[..., 0] + t * u[..., 0], a[..., 1] + t * u[..., 1])
+    inside = np.maximum(r[..., :-1], r[..., 1:]) - nearest
+    outside = np.maximum(d[..., :-1], d[..., 1:]) - np.minimum(r[..., :-1], r[..., 1:])
+    worst = np.maximum(np.where(upto, np.abs(d - r), -np.inf).max(axis=-1),
+                       np.where(steps, np.maximum(inside, outside), -np.inf).max(axis=-1))
+    return np.where(one_way, worst, np.inf)
