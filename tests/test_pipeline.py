@@ -171,8 +171,8 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict) -> None:
     networks = {r.info.run_id for r in models if r.data.tags["model"] != "rule"}
     assert {m.source_run_id for m in logged if m.name == "model"} == networks
     assert sorted(m.name for m in logged if m.name.startswith("int8-")) == ["int8-mlp"] * 3  # the smoke QAT model
-    for r in models:  # a network's run spans its training (the rule is fitted in no time)
-        assert r.info.end_time > r.info.start_time or r.data.tags["model"] == "rule"
+    for r in models:  # a model's run spans its training (the rule's sub-ms fit: 1 ms)
+        assert r.info.end_time > r.info.start_time
     windows = np.cumsum(np.full((3, 50, 2), 0.1, np.float32), axis=1)
     for shape in ("gear", "pentagram", "maple_leaf"):
         version = client.get_model_version_by_alias(f"toolpath-{shape.replace('_', '-')}", "best")

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 import subprocess
 import time
@@ -110,14 +111,12 @@ def _store_errors(uri: str) -> Iterator[None]:
             path = uri[len(prefix):].split("?", 1)[0]
             raise TrackingStoreError(f"{path}: not a usable MLflow store ({reason}); move it aside "
                                      f"(mv {path} {path}.bad) to start a new one, or set MLFLOW_TRACKING_URI") from None
-        raise TrackingStoreError(f"MLflow store {uri}: cannot be opened ({reason}); check MLFLOW_TRACKING_URI") \
-            from None
+        raise TrackingStoreError(f"MLflow store {uri}: cannot be opened ({reason}); set MLFLOW_TRACKING_URI") from None
 
 
 def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
-    """The id of experiment ``name``, created (artefacts under ``mlruns/``) when missing.
-
-    Runs under the store's init lock, in case this is the first use of a new store."""
+    """The id of experiment ``name``, created (artefacts under ``mlruns/``) when missing, under the
+    store's init lock (this may be the first use of a new store)."""
     def get_or_create() -> str:
         found = client.get_experiment_by_name(name)
         if found is None:
@@ -296,9 +295,10 @@ def log_model_run(name: str, tags: Mapping[str, str], params: Mapping[str, Any],
     stage = mlflow.active_run()
     store = mlflow.MlflowClient()
     inherited = {k: v for k, v in stage.data.tags.items() if not k.startswith("mlflow.")}
-    started, ended = span or (time.time(), time.time())
-    run = with_retry(lambda: store.create_run(stage.info.experiment_id, start_time=int(started * 1000), run_name=name,
-                                              tags={**inherited, **tags, "mlflow.parentRunId": stage.info.run_id}))
+    started, ended = span or (time.time(), time.time())  # in ms rounded outwards: a rule's sub-ms fit lasts 1 ms
+    started, ended = math.floor(started * 1000) / 1000, math.ceil(ended * 1000) / 1000
+    tags = {**inherited, **tags, "mlflow.parentRunId": stage.info.run_id}
+    run = with_retry(lambda: store.create_run(stage.info.experiment_id, round(started * 1000), tags, name))
     run_id, epochs = run.info.run_id, max(len(curves), 1)
     values = [Metric(k, float(v), int(1000 * (started + (ended - started) * record.epoch / epochs)), record.epoch)
               for record in curves for k, v in vars(record).items() if k != "epoch"]
@@ -316,7 +316,7 @@ def log_model_run(name: str, tags: Mapping[str, str], params: Mapping[str, Any],
     uri = None
     if network is not None:
         uri = _log_network(run_id, network, example)
-    store.set_terminated(run_id, "FINISHED", int(ended * 1000))
+    store.set_terminated(run_id, "FINISHED", round(ended * 1000))
     return uri
 
 
