@@ -81,6 +81,17 @@ def test_a_fine_polygon_becomes_one_arc_and_nothing_else_changes():
     assert read_text(out).points[-1].tolist() == program.points[-1].tolist()
 
 
+def test_an_arc_the_input_already_has_is_kept_beside_the_ones_welded():
+    # the reader's default chords (1e-3 mm) differ from the re-read check's: the input's own G3 must still
+    # read as unmoved (tinyg_batman.tap was refused for it: "welding arcs moved a point it does not own")
+    text = polygon_program(180, tail="G3 X-5 Y-5 I5 J0\nG1 X0 Y-5")
+    program = read_text(text)
+    assert ReaderOptions().chord_tolerance > 1e-4
+    out, arcs, _, _, _ = weld_arcs(program, program, 0.01)
+    assert len(arcs) == 1 and "G3 X-5 Y-5 I5 J0" in out.splitlines()
+    assert _deviation(text, out) <= 0.01 + 1e-9
+
+
 def test_a_coarse_polygon_keeps_its_lines():
     """30 chords on R10 sag 0.0137 mm: no arc through their ends comes within 0.01 mm of them."""
     text = polygon_program(30)

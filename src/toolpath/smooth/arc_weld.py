@@ -296,7 +296,12 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
             read_options: ReaderOptions | None, start: Reading | None) -> list[ArcRecord]:
     """Re-read the output: every point outside the arcs is where it was (else GCodeError); the arcs that
     lie farther than the tolerance from the original (each record gets its exact deviation)."""
-    final = (start.snapshot() if start is not None else Reading(current.source, read_options)).read(text)
+    def read(program_text: str) -> Program:
+        return (start.snapshot() if start is not None else Reading(current.source, read_options)).read(program_text)
+
+    final = read(text)
+    # the input's own arcs compared as chords of one fineness: read both at the check's (the caller's may differ)
+    before = read("".join(current.lines))
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
     for r in records:
@@ -304,9 +309,9 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         removed[r.first_line + 1:r.last_line + 1] = True
     shift = np.cumsum(removed)  # an output line number is the input's less the lines removed before it
     arc_lines = np.array([r.first_line - shift[r.first_line] for r in records])
-    kept_current = ~replaced[current.lines_of_points]
+    kept_before = ~replaced[before.lines_of_points]
     kept_final = ~np.isin(final.lines_of_points, arc_lines)
-    if not np.array_equal(current.points[kept_current], final.points[kept_final]):
+    if not np.array_equal(before.points[kept_before], final.points[kept_final]):
         raise GCodeError(current.source, 0, "internal check failed: welding arcs moved a point it does not own")
     first_point = {int(line): k for k, line in enumerate(original.lines_of_points)}
     for r, line in zip(records, arc_lines, strict=True):
