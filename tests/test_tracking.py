@@ -76,6 +76,19 @@ def test_each_dvc_invocation_has_its_own_parent_and_names_the_run_behind_a_skipp
     assert store.get_run(second).data.tags["up_to_date.label.gear"] == skipped["up_to_date.label.gear"]
 
 
+def test_one_dvc_process_keeps_one_parent_when_its_start_time_drifts(mlflow_store, monkeypatch):
+    """psutil's start of one `dvc repro` moved 8 s in 35 minutes here: three parents for one pipeline."""
+    monkeypatch.setenv("DVC_EXP_NAME", "exp-drift")
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("5761-1796392462", 1_796_392_462_990))
+    first = tracking.parent_run_id()
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("5761-1796392470", 1_796_392_470_990))
+    assert tracking.parent_run_id() == first
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("5762-1796392470", 1_796_392_470_990))  # another dvc
+    assert tracking.parent_run_id() != first
+    monkeypatch.setattr(tracking, "dvc_invocation", lambda: ("5761-1796399000", 1_796_399_000_000))  # pid reused later
+    assert tracking.parent_run_id() != first
+
+
 @pytest.mark.parametrize(("profile", "command"), [("default", "&& make repro`"),
                                                   ("paper", "config +experiment=paper && .venv/bin/dvc repro`")])
 def test_the_parent_description_reproduces_its_profile(monkeypatch, tmp_path, profile, command):

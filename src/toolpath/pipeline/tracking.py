@@ -1,22 +1,19 @@
 """MLflow wiring: one experiment, one parent run per pipeline run, one child run per stage item.
 
-The store is SQLite in the repository root (``sqlite:///$DVC_ROOT/mlflow.db``) unless
-``MLFLOW_TRACKING_URI`` is set; artefacts go to ``$DVC_ROOT/mlruns``.  The parent run is named
-after the DVC experiment (``DVC_EXP_NAME``) or ``repro-<git sha>``; one parent per invocation of DVC
-(the ``dvc`` process the stage runs under, by pid and start time), found again by those tags, so
-every stage of one ``dvc repro`` / ``dvc exp run`` lands under it.
+The store is SQLite in the repository root (``sqlite:///$DVC_ROOT/mlflow.db``) unless ``MLFLOW_TRACKING_URI``
+is set; artefacts go to ``$DVC_ROOT/mlruns``.  The parent run is named after the DVC experiment
+(``DVC_EXP_NAME``) or ``repro-<git sha>``; one parent per ``dvc`` process the stages run under (``dvc repro``,
+``dvc exp run``: its pid and start time), so every stage of one invocation lands under it.
 
 Runs span their work: the parent starts when that ``dvc`` process started and ends when its last
 stage ends (each stage closes it again); a stage's run starts when its process started; a model's
 run spans its training (:func:`log_model_run`).  The parent carries the composed configuration
 (``params.yaml``, flattened, and the file) and a description saying how to reproduce it.
 
-Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: every
-connection waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock (SQLite's busy timeout), a
-file lock serialises opening the store (a new store is migrated on first use), and the creations
-that can still race (the experiment, a parent run) are retried.  One store, not one per worker merged
-afterwards: MLflow writes are a handful of short transactions per stage, so waiting costs little, and
-``mlflow ui`` sees every run at once.  Past a few writers, use PostgreSQL (see the README).
+Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: each connection
+waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock, a file lock serialises opening (and migrating)
+the store, and the creations that can still race are retried.  One store, so ``mlflow ui`` sees every run
+at once; past a few writers, use PostgreSQL (see the README).
 """
 
 from __future__ import annotations
@@ -132,8 +129,7 @@ def experiment_id(client: Any, name: str = EXPERIMENT) -> str:
 
 
 def client(uri: str | None = None) -> Any:
-    """An MLflow client of ``uri`` (default :func:`tracking_uri`); creating it opens (and, for a new
-    store, migrates) the store, so it runs under the store's init lock."""
+    """An MLflow client of ``uri`` (default :func:`tracking_uri`), opened (a new store migrated) under its lock."""
     import mlflow
 
     uri = uri or tracking_uri()
@@ -157,8 +153,7 @@ def pipeline_key() -> str:
 
 
 def dvc_invocation() -> tuple[str, int]:
-    """(id, start in ms) of the ``dvc`` process this stage runs under (``dvc repro``, ``dvc exp run``, a
-    queue worker): every stage it runs shares the id.  A stage run by hand is its own invocation."""
+    """(pid-start, start in ms) of the ``dvc`` process this stage runs under (else of this process)."""
     import psutil
 
     me = psutil.Process()
@@ -176,14 +171,19 @@ def process_start_ms() -> int:
     return int(psutil.Process().create_time() * 1000)
 
 
+START_DRIFT_MS = 120_000  # a process's start as psutil reads it drifted 8 s over one 35-minute `dvc repro` here
+
+
 def _parent_run_id(client: Any, experiment_id: str, key: str) -> str:
+    """The parent of this ``dvc`` process (its pid, a start within :data:`START_DRIFT_MS`), else a new one."""
     invocation, started = dvc_invocation()
-    query = f"tags.pipeline_key = '{key}' and tags.pipeline_role = 'parent' and tags.invocation = '{invocation}'"
-    found = client.search_runs([experiment_id], filter_string=query, max_results=1)
-    if found:
-        return found[0].info.run_id
+    pid = invocation.split("-")[0]
+    query = f"tags.pipeline_key = '{key}' and tags.pipeline_role = 'parent' and tags.dvc_pid = '{pid}'"
+    for found in client.search_runs([experiment_id], filter_string=query, max_results=50):
+        if abs(found.info.start_time - started) <= START_DRIFT_MS:
+            return found.info.run_id
     tags = {"pipeline_key": key, "pipeline_role": "parent", "git_commit": git_commit(), "invocation": invocation,
-            "mlflow.note.content": _description(key)}
+            "dvc_pid": pid, "mlflow.note.content": _description(key)}
     run = client.create_run(experiment_id, start_time=started, run_name=key, tags=tags)
     _log_configuration(client, run.info.run_id)
     return run.info.run_id
