@@ -1,4 +1,6 @@
-"""Benchmarks (never timed tests).  Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode] [--threads N]
+"""Benchmarks (never timed tests).
+
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
@@ -9,7 +11,8 @@ M_min = 2, T = 10; G generations) per fidelity mode and gradient, on one core.  
 side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models), with the integer kernel's ceiling
 (:mod:`toolpath.bench.kernels`).  Writes ``reports/bench/gcode.json``:
 reading a G01-dense program and ``toolpath smooth`` end to end, beside gcodeparser and pygcode
-(:mod:`toolpath.bench.gcode`).  Prints the tables.
+(:mod:`toolpath.bench.gcode`).  Writes ``reports/bench/arcs.json``: ``toolpath smooth --arcs --method none``
+beside ArcWelder where it is given (:mod:`toolpath.bench.arcs`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -102,12 +105,17 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode"),
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
+    parser.add_argument("--arcwelder", help="ArcWelder's console binary (else $ARCWELDER, $ARCWELDER_SRC)")
     args = parser.parse_args(argv)
+    if args.only in (None, "arcs"):
+        _arcs(args.arcwelder)
+        if args.only == "arcs":
+            return 0
     if args.only in (None, "gcode"):
         _gcode()
         if args.only == "gcode":
@@ -211,6 +219,28 @@ def _gcode() -> None:
                       row.get("error", "-"), f"{row['peak_rss_mb']:.0f}" if "peak_rss_mb" in row else "-")
     Console().print(table)
     print(f"wrote {OUT / 'gcode.json'}")
+
+
+def _arcs(arcwelder: str | None) -> None:
+    from toolpath.bench.arcs import measure
+
+    result = measure(arcwelder)
+    write_json(result, OUT / "arcs.json")
+    table = Table(title=f"--arcs --method none at {result['tolerance_mm']} mm beside ArcWelder "
+                        f"({result['arcwelder_flags']}; {result['arcwelder']})")
+    for column in ("program", "lines in", "tool", "lines out", "arcs", "largest deviation mm", "seconds", "peak MB"):
+        table.add_column(column, justify="right")
+    for name, row in result["programs"].items():
+        for tool in ("ours", "arcwelder"):
+            if run := row.get(tool):
+                dev = run.get("deviation_mm", "-")
+                table.add_row(name, f"{row['lines_in']:,}", tool, f"{run['lines_out']:,}" if "lines_out" in run
+                              else run.get("error", "failed")[:60], str(run.get("arcs", "-")),
+                              f"{dev:.4f}" if isinstance(dev, float) else str(dev)[:40], f"{run['seconds']:.2f}",
+                              f"{run['peak_rss_mb']:.0f}" if "peak_rss_mb" in run else "-")
+    Console().print(table)
+    print(f"arcs only: {result['arcs_only_lines_per_s']:,.0f} lines/s on the G01-dense program; "
+          f"wrote {OUT / 'arcs.json'}")
 
 
 @contextlib.contextmanager
