@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from conftest import REPO
@@ -255,6 +255,7 @@ def test_arcs_alone_with_method_none(tmp_path):
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 10_000), noise=st.floats(0.0, 0.05), sweep=st.floats(0.2, 3.0), n=st.integers(4, 40),
        shift=st.floats(0.0, 0.002))
+@example(seed=0, noise=0.0, sweep=0.21875, n=20, shift=0.001953125)  # the end moved past the last vertex's ray
 def test_the_spiral_bound_holds_the_exact_distance(seed, noise, sweep, n, shift):
     """Eq.-free geometry, checked by hand's equivalent: the exact two-sided distance between the polyline
     and the arc a reader runs from a centre and an end moved by rounding (a spiral between two radii;

@@ -241,7 +241,10 @@ def _bound(chain: Chain, starts, index, p, o, c, j: np.ndarray) -> np.ndarray:
     sweep = np.where(sweep <= 0.0, 2.0 * math.pi, sweep)
     total = theta[:, np.arange(len(j)), j]  # each candidate's turn from its first vertex to its last
     one_way &= total < 2.0 * math.pi - 1e-9
-    frac = np.clip((lead[..., None] + theta) / sweep[..., None], 0.0, 1.0)
+    frac = (lead[..., None] + theta) / sweep[..., None]
+    interior = upto & (k[None, :] > 0) & (k[None, :] < j[:, None])
+    one_way &= ~np.any(interior & ((frac < 0.0) | (frac > 1.0)), axis=-1)  # a vertex off the span: no bound
+    frac = np.clip(frac, 0.0, 1.0)
     r0, r1 = np.hypot(s[..., 0], s[..., 1]), np.hypot(e[..., 0], e[..., 1])
     r = r0[..., None] + (r1 - r0)[..., None] * frac
     t = np.clip(-np.einsum("...d,...d->...", a, u) / np.maximum(np.einsum("...d,...d->...", u, u), 1e-300), 0.0, 1.0)
@@ -250,4 +253,6 @@ def _bound(chain: Chain, starts, index, p, o, c, j: np.ndarray) -> np.ndarray:
     outside = np.maximum(d[..., :-1], d[..., 1:]) - np.minimum(r[..., :-1], r[..., 1:])
     worst = np.maximum(np.where(upto, np.abs(d - r), -np.inf).max(axis=-1),
                        np.where(steps, np.maximum(inside, outside), -np.inf).max(axis=-1))
+    last = off[:, np.arange(len(j)), j, :] - e  # the last vertex against the end as written
+    worst = np.maximum(worst, np.hypot(last[..., 0], last[..., 1]))
     return np.where(one_way, worst, np.inf)

@@ -246,7 +246,8 @@ def spiral_bound(original: np.ndarray, start: np.ndarray, end: np.ndarray, centr
     point on the same ray from the centre.  Along a segment the distance ``rho`` to the centre is convex and
     the arc's radius ``r`` lies between its values at the segment's ends, so on a segment
     ``r - rho <= max(r_a, r_b) - rho_min`` and ``rho - r <= max(d_a, d_b) - min(r_a, r_b)``; with equal radii
-    this is the exact largest radial gap of each segment."""
+    this is the exact largest radial gap of each segment.  The ends pair with the ends (a rounded end can
+    lie past the last vertex's ray); a vertex between them off the arc's span has no pair (inf)."""
     sign = -1.0 if clockwise else 1.0
     offset = original - centre
     angles = np.unwrap(np.arctan2(offset[:, 1], offset[:, 0]))
@@ -258,7 +259,10 @@ def spiral_bound(original: np.ndarray, start: np.ndarray, end: np.ndarray, centr
     r0, r1 = math.hypot(*(start - centre)), math.hypot(*(end - centre))
     sweep = ((a1 - a0) * sign) % (2.0 * math.pi) or 2.0 * math.pi
     lead = (sign * (angles[0] - a0) + math.pi) % (2.0 * math.pi) - math.pi  # the first vertex's angle past the start
-    along = np.clip((lead + sign * (angles - angles[0])) / sweep, 0.0, 1.0)
+    along = (lead + sign * (angles - angles[0])) / sweep
+    if np.any((along[1:-1] < 0.0) | (along[1:-1] > 1.0)):  # a vertex off the arc's span: no ray pairs it
+        return math.inf
+    along = np.clip(along, 0.0, 1.0)
     r = r0 + (r1 - r0) * along
     d = np.hypot(offset[:, 0], offset[:, 1])
     a, u = offset[:-1], np.diff(offset, axis=0)
@@ -266,7 +270,9 @@ def spiral_bound(original: np.ndarray, start: np.ndarray, end: np.ndarray, centr
     nearest = np.hypot(a[:, 0] + t * u[:, 0], a[:, 1] + t * u[:, 1])
     inside = np.maximum(r[:-1], r[1:]) - nearest
     outside = np.maximum(d[:-1], d[1:]) - np.minimum(r[:-1], r[1:])
-    return float(max(np.abs(d - r).max(), inside.max(), outside.max()))
+    # the ends pair with the ends: a rounded end point can lie past the last vertex's ray
+    ends = max(math.hypot(*(original[0] - start)), math.hypot(*(original[-1] - end)))
+    return float(max(np.abs(d - r).max(), inside.max(), outside.max(), ends))
 
 
 def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
