@@ -169,7 +169,7 @@ def test_prepare_scales_each_feature_and_lays_it_out_either_way(inputs):
     """Each feature times its scale, bit for bit what scaling the stacked features gives, and the
     channels-first layout is the transpose of the default one (the convolutional models read it)."""
     x = windows(16) * 5.0
-    layer = Prepare(inputs)
+    layer = Prepare(inputs, stem_width=0)  # the stem after the scaling: tests/test_stem.py
     layer.fit_scale(x)
     assert not torch.equal(layer.scale, torch.ones(2))
     features = turning_features(x) if inputs == "turning" else prepare(x)
