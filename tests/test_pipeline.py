@@ -135,7 +135,10 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert_mlflow_store_reads_as_the_pipeline(work, env)
     assert "up to date" in run(dvc + ["repro"], work, env)
     classified = json.loads((work / "reports/metrics/classify.json").read_text())  # Table 5, the classify stage's
-    assert set(classified["predictions"]) == {"mcrl", "mlp", "rule"}
+    assert set(classified["predictions"]) == {"mcrl", "mlp", "rule", "mlp_xy"}
+    table3 = (work / "reports/tables/table3_metrics.md").read_text()  # both input blocks, the protocol noted
+    assert "**Table 3a, gear, the paper's input" in table3 and "**Table 3b, gear, our input" in table3
+    assert "| mlp_xy |" in table3 and "One protocol for every learned model of this block: 2 epochs" in table3
     assert all(p == int(c) for c, p in classified["predictions"]["rule"].items())  # the exact rule is always right
     # a change confined to the product (toolpath smooth) leaves every stage up to date
     with (work / "src/toolpath/smooth/command.py").open("a") as fh:

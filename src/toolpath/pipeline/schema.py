@@ -20,7 +20,8 @@ from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 # keys under these may be added freely (names of models, per-model overrides, roughness overrides)
-FREE = ("models", "models.*", "train.per_model", "train.per_model.*", "qat.float_modules", "qat.per_model",
+FREE = ("models", "models.*", "train.per_model", "train.per_model.*", "train.protocol.lr", "qat.float_modules",
+        "qat.per_model",
         "generate.*.roughness", "sweep", "hydra")
 
 
@@ -62,6 +63,7 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "gcode.read.chord_tolerance": POSITIVE,
     "gcode.write.decimals": _int(0, 9), "gcode.write.feed": POSITIVE, "gcode.write.plunge_feed": POSITIVE,
     "train.replicates": _int(1), "train.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
+    "train.protocol.settings.epochs": _int(1), "train.protocol.lr.*": POSITIVE,
     "models.*.schedule.epochs": _int(1), "models.*.schedule.per_shape.*.epochs": _int(1),
     "models.*.schedule.lr": POSITIVE, "models.*.schedule.per_shape.*.lr": POSITIVE,
     "generate.*.programs": _int(4),
@@ -197,6 +199,11 @@ def _relations(cfg: Mapping) -> Iterator[str]:
                 yield (f"shapes: {shape!r} has no {section}.{shape} section; the configured shapes are "
                        f"{', '.join(known)}")
                 break
+    protocol = _section(_section(cfg, "train"), "protocol")
+    for name in protocol.get("models") or []:
+        if name not in _section(cfg, "models") or name not in _section(protocol, "lr"):
+            yield (f"train.protocol.models: {name!r} needs a models.{name} section and a learning rate in "
+                   f"train.protocol.lr")
     window = label.get("window")
     for name, model in _section(cfg, "models").items():
         if isinstance(model, Mapping) and "window" in model and model["window"] != window:

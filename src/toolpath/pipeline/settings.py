@@ -60,7 +60,8 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     keys for that model;
     ``train.common.lr``, when set, replaces every shape's learning rate; a ``schedule`` inside the
     model config (a tuned model) overrides all of these and the ``train.common`` keys, being the most
-    specific, and its ``per_shape.<shape>`` keys override the rest of the schedule on that shape.
+    specific, and its ``per_shape.<shape>`` keys override the rest of the schedule on that shape;
+    ``train.protocol`` (:func:`protocol_settings`) overrides all of it for the models it lists.
     The seed derives from the global seed, the shape, the model and (past the first) the replicate,
     so a sweep trial trains what the stage's replicate 0 does.
     """
@@ -72,8 +73,18 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     shared = {"lr": common.lr} if common.get("lr") is not None else {}
     own = plain((cfg.train.get("per_model") or {}).get(model) or {})
     settings = {**plain(cfg.train[shape]), **own, **shared, **_common_training(cfg), **schedule,
+                **protocol_settings(cfg, model),
                 "seed": config.seed_for(cfg.seed, "train", shape, model, *_replicate_key(replicate))}
     return network, settings
+
+
+def protocol_settings(cfg: DictConfig, model: str) -> dict[str, Any]:
+    """``train.protocol.settings`` and the model's ``train.protocol.lr`` for a model the protocol lists
+    (they win over everything else of :func:`training`); nothing for any other model."""
+    protocol = plain(cfg.train.get("protocol") or {})
+    if model not in (protocol.get("models") or []):
+        return {}
+    return {**(protocol.get("settings") or {}), "lr": protocol["lr"][model]}
 
 
 def _replicate_key(replicate: int) -> tuple[str, ...]:

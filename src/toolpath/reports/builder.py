@@ -19,7 +19,25 @@ from toolpath.reports import classify_figures, corner_report, sequencing, smooth
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, table4
-from toolpath.reports.tables import Table, categories_table, corpus_table, table2, table3
+from toolpath.reports.tables import INPUT_BLOCKS, Table, categories_table, corpus_table, table2, table3
+
+
+def protocol_note(cfg) -> str | None:
+    """Table 3a's note: the one protocol its models trained under (``train.protocol``), from the config."""
+    protocol = OmegaConf.to_container(cfg.train.get("protocol") or {}, resolve=True)
+    if not protocol.get("models"):
+        return None
+    settings = protocol.get("settings") or {}
+    common = cfg.train.common
+    rates = ", ".join(f"{m} {lr:g}" for m, lr in protocol["lr"].items() if m in protocol["models"])
+    return (f"One protocol for every learned model of this block: {settings.get('epochs')} epochs, "
+            f"{common.schedule} schedule (warm-up {common.warmup:g}), augmentation "
+            f"{'on' if settings.get('augment', common.augment) else 'off'}, class weights "
+            f"{common.class_weight or 'none'}, auxiliary losses weight {settings.get('aux_loss_weight', 0):g}, "
+            f"batch {settings.get('batch_size')}; each model's learning rate chosen from the grid "
+            f"{', '.join(f'{r:g}' for r in protocol['tune']['lr'])} by validation macro F1 on "
+            f"{protocol['tune']['shape']}'s validation programs, one seed (`python -m toolpath.sweep.protocol`, "
+            f"reports/tuning/protocol.md; the test split is never read): {rates}.")
 
 
 class Missing(Exception):
@@ -108,7 +126,11 @@ class Report:
 
     def performance(self) -> str:
         metrics = self.train_metrics()
-        tables = [table3(s, {m: metrics[s][m]["replicates"] for m in metrics[s]}) for s in self.shapes]
+        inputs = {m: self.cfg.models[m].get("inputs", "turning") for m in self.learned}
+        note = protocol_note(self.cfg)
+        tables = [table3(s, {m: metrics[s][m]["replicates"] for m in metrics[s] if m == "rule" or inputs[m] == block},
+                         block, note if block == "coordinates" else None)
+                  for s in self.shapes for block in INPUT_BLOCKS if block in inputs.values()]
         self.summaries["table3"] = summary.table3_summary(metrics)
         return self.table(tables, "table3_metrics")
 

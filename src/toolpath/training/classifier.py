@@ -100,10 +100,11 @@ def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class
                   parts: Mapping[str, tuple[np.ndarray, np.ndarray]], on_epoch=None,
                   programs: Mapping[str, np.ndarray] | None = None) -> tuple[Any, dict, list, float]:
     """Train one model on ``parts['train']`` (validation: ``parts['val']``) and score it on the
-    validation and test splits: (classifier, metrics, per-epoch history, seconds).  The exact rule (an
-    estimator that is no torch module) is fitted as it is; it learns nothing.  The train stage and
-    every sweep trial call this, so a trial trains what the stage would.  With ``programs`` (each
-    split's program per window) each split's accuracy gets a bootstrap interval over its programs."""
+    validation and test splits (those ``parts`` holds): (classifier, metrics, per-epoch history,
+    seconds).  The exact rule (an estimator that is no torch module) is fitted as it is; it learns
+    nothing.  The train stage and every sweep trial call this, so a trial trains what the stage
+    would.  With ``programs`` (each split's program per window) each split's accuracy gets a
+    bootstrap interval over its programs."""
     import time
 
     from toolpath.training.metrics import classification_metrics, program_bootstrap
@@ -116,7 +117,7 @@ def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class
         clf, history = build(network).fit(parts["train"][0]), []
     seconds = time.perf_counter() - started
     metrics = {}
-    for split in ("val", "test"):
+    for split in (s for s in ("val", "test") if s in parts):  # a tuning run is given no test split
         proba = clf.predict_proba(parts[split][0])
         metrics[split] = classification_metrics(parts[split][1], proba)
         if programs is not None:

@@ -1,0 +1,70 @@
+"""Table 3's one protocol: the same settings for every model it lists, learning rates chosen on
+validation programs only (``python -m toolpath.sweep.protocol``), the committed study consistent."""
+
+import json
+
+import numpy as np
+import pytest
+from omegaconf import OmegaConf
+
+from conftest import REPO, easy_split, write_windows
+from toolpath.pipeline.settings import training
+from toolpath.sweep import protocol
+
+CFG = OmegaConf.load(REPO / "params.yaml")
+STUDY = REPO / "reports/tuning/protocol.json"
+
+
+def test_every_model_of_the_protocol_trains_the_same_settings_but_its_rate():
+    listed = list(CFG.train.protocol.models)
+    assert len(listed) >= 2
+    for shape in CFG.shapes:
+        runs = {m: training(CFG, shape, m)[1] for m in listed}
+        shared = [{k: v for k, v in s.items() if k not in ("lr", "seed")} for s in runs.values()]
+        assert all(s == shared[0] for s in shared)
+        assert all(runs[m]["lr"] == CFG.train.protocol.lr[m] for m in listed)
+        assert shared[0]["epochs"] == CFG.train.protocol.settings.epochs and shared[0]["augment"] is True
+        assert all(CFG.models[m].inputs == "coordinates" for m in listed)
+
+
+def test_the_configured_rates_are_the_committed_study_s_choice():
+    if not STUDY.exists():
+        pytest.fail(f"{STUDY.relative_to(REPO)} is missing: run `python -m toolpath.sweep.protocol`")
+    study = json.loads(STUDY.read_text())
+    assert study["split"] == "val" and study["shape"] == CFG.train.protocol.tune.shape
+    assert study["grid"] == list(CFG.train.protocol.tune.lr)
+    assert study["chosen"] == {m: CFG.train.protocol.lr[m] for m in CFG.train.protocol.models}
+    assert protocol.choose(study["trials"]) == study["chosen"]  # the file agrees with itself
+    settings = OmegaConf.to_container(CFG.train.protocol.settings)
+    assert study["settings"] == settings
+
+
+def test_choose_takes_the_highest_validation_f1_and_the_lower_rate_on_a_tie():
+    trials = [{"model": "a", "lr": 0.004, "val_f1": 0.9}, {"model": "a", "lr": 0.001, "val_f1": 0.9},
+              {"model": "a", "lr": 0.002, "val_f1": 0.8}, {"model": "b", "lr": 0.002, "val_f1": 0.7},
+              {"model": "b", "lr": 0.001, "val_f1": 0.6}]
+    assert protocol.choose(trials) == {"a": 0.001, "b": 0.002}
+
+
+def test_the_tuning_never_loads_the_test_split(tmp_path, monkeypatch):
+    from toolpath.pipeline import artifacts
+
+    X, y = easy_split(96)
+    split = np.arange(96) % 3  # train, val and test windows all present in the file
+    (tmp_path / "conf").symlink_to(REPO / "conf")
+    write_windows(tmp_path / "data/windows/gear.npz", X, y + 1, split, program=np.arange(96) % 12)
+    original = artifacts.WindowSet.part
+
+    def guarded(self, which):
+        assert which != artifacts.Split.TEST, "the tuning read the test split"
+        return original(self, which)
+
+    monkeypatch.setattr(artifacts.WindowSet, "part", guarded)
+    monkeypatch.chdir(tmp_path)
+    protocol.main(["+experiment=smoke", "train.protocol.models=[mlp_xy,cnn_xy]", "train.common.workers=1"])
+    study = json.loads((tmp_path / "reports/tuning/protocol.json").read_text())
+    assert {(t["model"], t["lr"]) for t in study["trials"]} == {(m, lr) for m in ("mlp_xy", "cnn_xy")
+                                                               for lr in (1e-3, 3e-3)}
+    assert set(study["chosen"]) == {"mlp_xy", "cnn_xy"}
+    assert (tmp_path / "reports/tuning/protocol.png").stat().st_size > 0
+    assert "**" in (tmp_path / "reports/tuning/protocol.md").read_text()
