@@ -128,6 +128,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
     assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
+    assert "reports/metrics/train/gear/paired.json" in shown and "mcrl.mlp.accuracy.low" in shown
     assert "reports/metrics/optimize/gear.json" in shown
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
@@ -139,6 +140,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     table3 = (work / "reports/tables/table3_metrics.md").read_text()  # both input blocks, the protocol noted
     assert "**Table 3a, gear, the paper's input" in table3 and "**Table 3b, gear, our input" in table3
     assert "| mlp_xy |" in table3 and "One protocol for every learned model of this block: 2 epochs" in table3
+    assert table3.count("| logistic regression (reference) |") == 6 and "**Table 3c, gear: MCRL minus" in table3
     assert all(p == int(c) for c, p in classified["predictions"]["rule"].items())  # the exact rule is always right
     # a change confined to the product (toolpath smooth) leaves every stage up to date
     with (work / "src/toolpath/smooth/command.py").open("a") as fh:

@@ -15,6 +15,7 @@ from toolpath.reports.readme import main as readme_main
 from toolpath.reports.summary import table3_summary
 from toolpath.reports.tables import categories_table
 from toolpath.stages import report
+from toolpath.training.metrics import DEGENERATE
 
 SHAPES = ("gear", "pentagram", "maple_leaf")
 
@@ -38,6 +39,11 @@ def partial(tmp_path, monkeypatch, mlflow_store):
         path = tmp_path / "reports/metrics/label" / f"{shape}.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(label))
+        paired = {"mcrl": {"mlp": _paired(0.11, 0.05, 0.17)}}
+        (tmp_path / "reports/metrics/train" / shape).mkdir(parents=True, exist_ok=True)
+        (tmp_path / "reports/metrics/train" / shape / "paired.json").write_text(json.dumps(paired))
+        logistic = {"turning": _metrics(0.95)["replicates"], "coordinates": _metrics(0.62)["replicates"]}
+        (tmp_path / "reports/metrics/train" / shape / "logistic.json").write_text(json.dumps(logistic))
         for model, accuracy in (("mcrl", 0.8123 + k / 100), ("mlp", 0.7), ("rule", 1.0), ("mlp_xy", 0.6)):
             path = tmp_path / "reports/metrics/train" / shape / f"{model}.json"
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -55,6 +61,8 @@ def test_report_on_partial_inputs_names_what_is_missing_and_cells_match_metrics(
     assert "| mcrl | **82.23** / 94.98 (-12.75) |" in table3  # pentagram MCRL accuracy 0.8223: worse, negative
     assert "| mcrl | **81.23** / 94.75 (-13.52) |" in table3  # gear
     assert "| rule | 100.00 / - |" in table3  # the reference, never bold: the best learned model is
+    assert "| logistic regression (reference) | 95.00 / - |" in table3  # in both blocks, never bold
+    assert "| logistic regression (reference) | 62.00 / - |" in table3
     assert (partial / "reports/tables/table3_metrics.tex").is_file()
     table1_md = (partial / "reports/tables/table1_categories.md").read_text()
     assert "| 1 smooth | <= 1.9 | 60 (60.0 %) | 60 (60.0 %) | 60 (60.0 %) |" in table1_md
@@ -80,7 +88,9 @@ def test_the_parent_run_carries_the_headline_figures_and_the_best_model(partial)
     parent = mlflow.MlflowClient(tracking.tracking_uri()).search_runs(
         [tracking.experiment_id(tracking.client())], filter_string="tags.pipeline_role = 'parent'")[0]
     assert parent.data.metrics["table3.gear.mcrl.test_accuracy"] == pytest.approx(0.8123)
-    assert parent.data.metrics["table3.pentagram.mlp.test_accuracy"] == pytest.approx(0.7)
+    # MCRL on each input and the best learned model; the others stay on their stage runs (the 60-figure cap)
+    assert "table3.pentagram.mlp.test_accuracy" not in parent.data.metrics
+    assert parent.data.metrics["table3.pentagram.mcrl.test_accuracy"] == pytest.approx(0.8223)
     assert parent.data.tags["best_model.gear"] == "mcrl"  # 0.81 against the MLP's 0.70; the rule is no model
     assert not any(k.startswith("smoothing.") for k in parent.data.metrics)  # absent inputs are left out
 
@@ -101,6 +111,28 @@ def test_readme_without_markers_is_refused(partial, capsys):
     assert "README.md: cannot write the measured figures (ValueError: README.md: report markers not found" in \
         capsys.readouterr().err
     assert (partial / "README.md").read_text() == "# no markers\n"  # untouched
+
+
+def _paired(difference, low, high):
+    verdict = "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+    figure = {"difference": difference, "low": low, "high": high, "verdict": verdict}
+    return {"accuracy": figure, "f1": figure, "programs": 5, "seeds": [2, 2]}
+
+
+def test_every_paired_sentence_follows_its_interval():
+    """The README's and the report's comparison sentences come from the verdicts, which come from the
+    intervals: above 0 better, below worse, across 0 no difference shown."""
+    from toolpath.reports.summary import paired_summary
+    from toolpath.reports.tables import paired_table
+
+    paired = {"gear": {"mcrl_xy": {"cnn_xy": _paired(0.02, 0.01, 0.03), "rnn_xy": _paired(0.01, -0.01, 0.03),
+                                   "lstm_xy": _paired(-0.02, -0.03, -0.01), "maxvit_xy": {"verdict": DEGENERATE}}}}
+    text = paired_summary(paired)
+    assert text == ("- gear, mcrl_xy: test accuracy better than cnn_xy; no difference shown against rnn_xy; "
+                    "worse than lstm_xy (95 % paired interval over test programs and seeds, Table 3c).\n")
+    rows = paired_table("gear", paired["gear"]).rows
+    assert rows[0] == ["mcrl_xy", "cnn_xy", "+2.00 (+1.00 to +3.00)", "+2.00 (+1.00 to +3.00)", "better / better"]
+    assert rows[-1] == ["mcrl_xy", "maxvit_xy", "-", "-", DEGENERATE]
 
 
 def test_blocks_sections_and_summaries():

@@ -105,6 +105,14 @@ class Layout:
     def train_metrics(self, shape: str, model: str) -> Path:
         return self.metrics / "train" / shape / f"{model}.json"
 
+    def train_paired(self, shape: str) -> Path:
+        """MCRL against every other model on the same test windows (paired intervals)."""
+        return self.metrics / "train" / shape / "paired.json"
+
+    def train_logistic(self, shape: str) -> Path:
+        """The logistic-regression reference on each input (models.linear)."""
+        return self.metrics / "train" / shape / "logistic.json"
+
     def train_curves(self, shape: str, model: str) -> Path:
         return self.plots / "train" / shape / f"{model}.csv"
 

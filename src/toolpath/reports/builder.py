@@ -19,7 +19,16 @@ from toolpath.reports import classify_figures, corner_report, sequencing, smooth
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, table4
-from toolpath.reports.tables import INPUT_BLOCKS, Table, categories_table, corpus_table, table2, table3
+from toolpath.reports.tables import (
+    INPUT_BLOCKS,
+    LOGISTIC,
+    Table,
+    categories_table,
+    corpus_table,
+    paired_table,
+    table2,
+    table3,
+)
 
 
 def protocol_note(cfg) -> str | None:
@@ -128,10 +137,21 @@ class Report:
         metrics = self.train_metrics()
         inputs = {m: self.cfg.models[m].get("inputs", "turning") for m in self.learned}
         note = protocol_note(self.cfg)
-        tables = [table3(s, {m: metrics[s][m]["replicates"] for m in metrics[s] if m == "rule" or inputs[m] == block},
-                         block, note if block == "coordinates" else None)
+        logistic_files = {s: self.layout.train_logistic(s) for s in self.shapes}
+        require(list(logistic_files.values()), "train")
+        logistic = {s: read_json(p) for s, p in logistic_files.items()}
+        def rows(shape: str, block: str) -> dict:
+            own = {m: metrics[shape][m]["replicates"] for m in metrics[shape] if m == "rule" or inputs[m] == block}
+            return {**own, **({LOGISTIC: logistic[shape][block]} if block in logistic[shape] else {})}
+
+        tables = [table3(s, rows(s, block), block, note if block == "coordinates" else None)
                   for s in self.shapes for block in INPUT_BLOCKS if block in inputs.values()]
+        paired_files = {s: self.layout.train_paired(s) for s in self.shapes}
+        require(list(paired_files.values()), "train")
+        paired = {s: read_json(p) for s, p in paired_files.items()}
+        tables += [paired_table(s, paired[s]) for s in self.shapes if paired[s]]
         self.summaries["table3"] = summary.table3_summary(metrics)
+        self.summaries["paired"] = summary.paired_summary(paired)
         return self.table(tables, "table3_metrics")
 
     def curves(self) -> str:

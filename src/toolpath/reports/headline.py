@@ -20,9 +20,11 @@ def _load(path: Path, producer: str) -> dict | None:
     return read_json(path, producer) if path.is_file() else None
 
 
-def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tuple[dict[str, float], dict[str, str]]:
+def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str],
+             anchors: Iterable[str] | None = None) -> tuple[dict[str, float], dict[str, str]]:
     """(metrics, tags) for the parent run, at most 60 figures, each name saying what it is measured against:
-    per shape the Table 3 seed-mean test accuracy of every model, MCRL's INT8 accuracy drop, the Sec. 5.2.4
+    per shape the Table 3 seed-mean test accuracy of MCRL on each input (``anchors``; every model when
+    None) and of the best learned model, MCRL's INT8 accuracy drop, the Sec. 5.2.4
     LocalCurvature reduction on categories 2-4 within the tube (``_vs_rough``: against the rough window) of
     each paper smoother and the dispatch, and the machining time each saves (``_vs_g01``); per corner case,
     NURBS + PSO's peak-curvature reduction against method 1 and its time against the G01 corner.  Tags
@@ -40,10 +42,12 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str]) -> tu
                 continue
             seeds = found["replicates"]
             summaries[model] = seeds
-            if seeds["degenerate"] == seeds["replicates"]:  # flagged in the report, never scored
-                continue
-            metrics[f"table3.{shape}.{model}.test_accuracy"] = seeds["test"]["accuracy"]["mean"]
-        if best := best_learned(summaries):
+        best = best_learned(summaries)
+        shown = set(summaries) if anchors is None else {*anchors, best}
+        for model, seeds in summaries.items():
+            if model in shown and seeds["degenerate"] < seeds["replicates"]:  # degenerate: flagged, never scored
+                metrics[f"table3.{shape}.{model}.test_accuracy"] = seeds["test"]["accuracy"]["mean"]
+        if best:
             tags[f"best_model.{shape}"] = best
         drop = (_load(layout.qat_metrics(shape), f"qat@{shape}") or {}).get("mcrl", {})
         if isinstance(drop, dict) and "accuracy_drop_points" in drop:

@@ -51,6 +51,25 @@ def _mcrl_cell(summary: Mapping | None, paper_cell: str) -> str:
             + (f", {note}" if note else ""))
 
 
+def paired_summary(paired: Mapping[str, Mapping[str, Mapping[str, Mapping]]]) -> str:
+    """One sentence per shape and MCRL, each claim the verdict of its paired accuracy interval (Table 3c):
+    better than / no difference shown against / worse than."""
+    wording = {"better": "better than", "no difference shown": "no difference shown against",
+               "worse": "worse than"}
+    lines = []
+    for shape, anchors in paired.items():
+        for anchor, rivals in anchors.items():
+            groups: dict[str, list[str]] = {}
+            for rival, result in rivals.items():
+                if "accuracy" in result:
+                    groups.setdefault(result["accuracy"]["verdict"], []).append(rival)
+            said = [f"{wording[v]} {', '.join(groups[v])}" for v in wording if groups.get(v)]
+            if said:
+                lines.append(f"- {shape}, {anchor}: test accuracy {'; '.join(said)} (95 % paired interval over "
+                             "test programs and seeds, Table 3c).")
+    return "\n".join(lines) + ("\n" if lines else "")
+
+
 def _spread(figure: Mapping) -> str:
     """A mean +- sd figure in per cent."""
     sd = figure.get("sd")
@@ -83,6 +102,8 @@ def readme_block(summaries: Mapping[str, str], profile: str, commit: str, out: P
              f"![Every smoothing method on one drawn window per shape]({out}/figures/{HEADLINE}.png)", ""]
     if "table3" in summaries:
         parts += ["**Table 3 in brief** (test programs; the paper's figure in brackets):", "", summaries["table3"]]
+    if summaries.get("paired"):
+        parts += ["**Paired comparisons** (a claim only where its interval excludes 0):", "", summaries["paired"]]
     if "table6" in summaries:
         parts += ["**Sec. 5.2.4 in brief** (mean LocalCurvature reduction over the sampled test windows of "
                   "categories 2-4, the ones Sec. 5.3 smooths, with 95 % bootstrap intervals over windows):",

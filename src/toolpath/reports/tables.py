@@ -70,6 +70,7 @@ def _ours(figures: Mapping, column: str) -> tuple[float, float | None]:
 INPUT_BLOCKS = {"coordinates": "the paper's input: the window's coordinates (Sec. 5.1.1), each model's first layers "
                                "a learned difference stem",
                 "turning": "our input: per-point turning terms (1 - cos, sin) of Eq. 1-3"}
+LOGISTIC = "logistic regression (reference)"  # Table 3's row for models.linear, beside the exact rule
 PROTOCOL_SUFFIX = "_xy"  # a model of the coordinates block is named after its paper row plus this
 
 
@@ -96,7 +97,7 @@ def table3(shape: str, summaries: Mapping[str, Mapping], block: str = "turning",
     scored = {m: v for m, v in summaries.items() if v["degenerate"] < v["replicates"]}
     best = {}
     for column in TABLE3_COLUMNS:  # the best learned model: the exact rule is the reference, not a rival
-        values = [_ours(v["test"], column)[0] for m, v in scored.items() if m != "rule"]
+        values = [_ours(v["test"], column)[0] for m, v in scored.items() if m not in ("rule", LOGISTIC)]
         best[column] = (min(values) if column in LOWER_IS_BETTER else max(values)) if values else None
     for model, summary in summaries.items():
         note = describe(summary)
@@ -117,7 +118,8 @@ def table3(shape: str, summaries: Mapping[str, Mapping], block: str = "turning",
         table.add(cells)
     table.notes.append(
         "Ours: mean +- standard deviation over the training seeds (column *seeds*; the exact rule learns nothing "
-        "and runs once). Bold: the best mean of a learned model per column. A negative difference in accuracy, "
+        "and runs once). Bold: the best mean of a network per column; the logistic regression (one deterministic fit "
+        "on the flattened input) shows what the input alone gives. A negative difference in accuracy, "
         "precision, recall, F1 or AUC (positive in loss) means ours is worse than the paper's. A model whose "
         f"every test prediction falls into one class is shown as *{DEGENERATE}*, not scored. The interval is a "
         "percentile bootstrap over test programs (the independent unit, not windows) of the accuracy averaged "
@@ -190,4 +192,27 @@ def table2(profile: str, ours: Mapping[str, Mapping], runs: Mapping[str, Mapping
                        "measured wall-clock on this machine's CPU threads; the paper's are minutes on an RTX 4070 "
                        "for the epochs it ran. The `paper` profile (`+experiment=paper`) runs Table 2 as printed "
                        "(tests/test_config.py checks it).")
+    return table
+
+
+def paired_table(shape: str, paired: Mapping[str, Mapping[str, Mapping]]) -> Table:
+    """Table 3c for one shape: MCRL (on each input) minus every other model, accuracy and macro F1 in
+    points with their 95 % paired bootstrap interval over test programs and seeds, and the verdict
+    the interval allows (:func:`toolpath.training.metrics.paired_bootstrap`)."""
+    headers = ["MCRL", "against", "accuracy difference (interval)", "macro F1 difference (interval)",
+               "verdict (accuracy / F1)"]
+    table = Table(f"Table 3c, {shape}: MCRL minus each model on the same test programs (points), 95 % interval "
+                  "resampling programs and seeds together", headers)
+    for anchor, rivals in paired.items():
+        for rival, result in rivals.items():
+            if "accuracy" not in result:
+                table.add([anchor, rival, "-", "-", result["verdict"]])
+                continue
+            cells = [f"{100 * r['difference']:+.2f} ({100 * r['low']:+.2f} to {100 * r['high']:+.2f})"
+                     for r in (result["accuracy"], result["f1"])]
+            table.add([anchor, rival, *cells, f"{result['accuracy']['verdict']} / {result['f1']['verdict']}"])
+    table.notes.append("Better / worse: the 95 % interval lies above / below 0; otherwise no difference is shown. "
+                       "Each bootstrap draw takes the test programs with replacement (the same for both models) and "
+                       "each model's training seeds with replacement; seeds whose predictions fell into one class "
+                       "are left out.")
     return table

@@ -47,7 +47,8 @@ def main(argv: list[str] | None = None) -> None:
         (out / BLOCK_FILE).write_text(summary.readme_block(report.summaries, cfg.profile, commit, out) + "\n",
                                       encoding="utf-8")
         layout = settings.layout(cfg)
-        tracking.log_to_parent(*headline(layout, cfg.shapes, cfg.train.models))
+        anchors = [m for m in cfg.train.models if cfg.models[m]["_target_"] == "toolpath.models.MCRL"]
+        tracking.log_to_parent(*headline(layout, cfg.shapes, cfg.train.models, anchors))
         tracking.log_to_parent_artifacts({"": out / "report.md", "tables": out / "tables",
                                           "figures": out / "figures" / f"{summary.HEADLINE}.png"})
         if (pipeline := Path("dvc.yaml")).is_file():  # the stages DVC skipped: say which run made their outputs

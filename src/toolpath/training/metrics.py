@@ -87,3 +87,59 @@ def program_bootstrap(correct: np.ndarray, programs: np.ndarray, seed: int, draw
     return {"low": float(low), "high": float(high), "half_width": float((high - low) / 2), "programs": int(len(ids)),
             "level": level}
 
+
+
+def _accuracy_f1(confusion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Accuracy and macro F1 (Eq. 28, 32) of confusion matrices ``(..., k, k)`` (rows true, columns
+    predicted); the macro average runs over the classes present (true or predicted), as scikit-learn's."""
+    tp = np.diagonal(confusion, axis1=-2, axis2=-1)
+    true, pred = confusion.sum(axis=-1), confusion.sum(axis=-2)
+    total = np.maximum(true.sum(axis=-1), 1.0)
+    f1 = np.where(true + pred > 0, 2 * tp / np.maximum(true + pred, 1e-12), 0.0)
+    present = (true + pred) > 0
+    return tp.sum(axis=-1) / total, (f1 * present).sum(axis=-1) / np.maximum(present.sum(axis=-1), 1)
+
+
+def _confusions(predicted: np.ndarray, y: np.ndarray, index: np.ndarray, programs: int) -> np.ndarray:
+    """(seeds, programs, k, k) confusion counts of per-seed predictions ``(seeds, n)``."""
+    k = len(CLASSES)
+    true = np.searchsorted(CLASSES, y)
+    cells = index * k * k + true * k
+    out = np.zeros((len(predicted), programs * k * k))
+    for s, p in enumerate(predicted):
+        out[s] = np.bincount(cells + np.searchsorted(CLASSES, p), minlength=programs * k * k)
+    return out.reshape(len(predicted), programs, k, k)
+
+
+def paired_bootstrap(predicted_a: np.ndarray, predicted_b: np.ndarray, y: np.ndarray, programs: np.ndarray,
+                     seed: int, draws: int = 2000, level: float = 0.95) -> dict:
+    """Model A minus model B in accuracy and macro F1 on the same test windows, with a percentile
+    bootstrap interval that resamples test programs and training seeds together.
+
+    ``predicted_a`` / ``predicted_b``: (seeds, windows) predicted categories of each model's replicates.
+    Each draw takes the programs with replacement (the same programs for both models: paired) and,
+    per model, its seeds with replacement; a model's figure is the mean over its drawn seeds of the
+    metric on the drawn programs.  The point estimate is the difference of the seed means on all
+    programs.  ``verdict``: "better" when the interval lies above 0, "worse" below, else "no difference
+    shown"."""
+    ids, index = np.unique(np.asarray(programs), return_inverse=True)
+    rng = np.random.default_rng(seed)
+    weights = np.stack([np.bincount(row, minlength=len(ids)) for row in rng.integers(0, len(ids), (draws, len(ids)))])
+    figures = []
+    for predicted in (np.atleast_2d(predicted_a), np.atleast_2d(predicted_b)):
+        counts = _confusions(predicted, np.asarray(y), index, len(ids))
+        drawn = np.einsum("dp,spij->dsij", weights.astype(float), counts)  # (draws, seeds, k, k)
+        pick = rng.integers(0, len(predicted), (draws, len(predicted)))
+        per_seed = _accuracy_f1(drawn)
+        full = _accuracy_f1(counts.sum(axis=1))
+        figures.append([(np.take_along_axis(m, pick, axis=1).mean(axis=1), float(f.mean()))
+                        for m, f in zip(per_seed, full, strict=True)])
+    out = {}
+    for k, name in enumerate(("accuracy", "f1")):
+        (boot_a, point_a), (boot_b, point_b) = figures[0][k], figures[1][k]
+        low, high = np.quantile(boot_a - boot_b, [(1 - level) / 2, (1 + level) / 2])
+        verdict = "better" if low > 0 else "worse" if high < 0 else "no difference shown"
+        out[name] = {"difference": point_a - point_b, "low": float(low), "high": float(high), "verdict": verdict}
+    out.update(programs=int(len(ids)), seeds=[int(len(np.atleast_2d(p))) for p in (predicted_a, predicted_b)],
+               level=level, draws=draws)
+    return out

@@ -49,6 +49,7 @@ class Outcome:
     seconds: float
     test_correct: np.ndarray
     started: float = 0.0  # wall clock (epoch seconds) when the run began: its MLflow run spans it
+    test_predicted: np.ndarray | None = None  # the category predicted for each test window (paired comparisons)
 
 
 _DATA: dict[str, Any] = {}
@@ -68,8 +69,9 @@ def _run(job: Job) -> Outcome:
     parts, started = _DATA["parts"], time.time()
     clf, metrics, history, seconds = fit_and_score(job.network, job.settings, job.class_weight, parts,
                                                    programs=_DATA["programs"])
-    correct = clf.predict(parts["test"][0]) == parts["test"][1] if "test" in parts else np.zeros(0, bool)
-    return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct, started)
+    predicted = clf.predict(parts["test"][0]) if "test" in parts else np.zeros(0, np.int64)
+    correct = predicted == parts["test"][1] if "test" in parts else np.zeros(0, bool)
+    return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct, started, predicted)
 
 
 def run_all(jobs: Sequence[Job], parts: Mapping[str, tuple[np.ndarray, np.ndarray]],
@@ -134,3 +136,44 @@ def describe(summary: Mapping[str, Any]) -> str | None:
 def job_order(jobs: Sequence[Job], cost: Callable[[Job], float]) -> list[Job]:
     """Longest first, so two workers finish together instead of one waiting on the last big run."""
     return sorted(jobs, key=lambda j: (-cost(j), j.model, j.replicate))
+
+
+def paired(outcomes: Mapping[str, Sequence[Outcome]], anchors: Sequence[str], inputs: Mapping[str, str],
+           y: np.ndarray, programs: np.ndarray, seed: Callable[[str, str], int]) -> dict:
+    """Each anchor (MCRL on each input) against every other learned model on the same input and the other
+    anchors: :func:`~toolpath.training.metrics.paired_bootstrap` over the test programs and the seeds
+    that learned (a model none of whose seeds learned is named, not compared)."""
+    from toolpath.training.metrics import paired_bootstrap
+
+    learned = {m: np.stack([o.test_predicted for o in sorted(runs, key=lambda o: o.job.replicate)
+                            if not degenerate(o.metrics["test"])]) for m, runs in outcomes.items()
+               if m in inputs and any(not degenerate(o.metrics["test"]) for o in runs)}
+    out: dict[str, dict] = {}
+    for anchor in (a for a in anchors if a in learned):
+        rivals = [m for m in inputs if m != anchor and (inputs[m] == inputs[anchor] or m in anchors)]
+        out[anchor] = {m: paired_bootstrap(learned[anchor], learned[m], y, programs, seed(anchor, m))
+                       if m in learned else {"verdict": DEGENERATE} for m in rivals}
+    return out
+
+
+def logistic_reference(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], inputs: Sequence[str],
+                       test_programs: np.ndarray, seed: int) -> dict:
+    """Per input, the logistic-regression reference (:func:`toolpath.models.linear.fit_logistic`) trained
+    on the training windows, in :func:`summarise`'s layout (one deterministic run, no sd), so Table 3 shows
+    it as a row; its test accuracy gets the program bootstrap interval."""
+    from toolpath.models.linear import features, fit_logistic, probabilities
+    from toolpath.training.metrics import CLASSES, classification_metrics
+
+    out = {}
+    for name in inputs:
+        model = fit_logistic(*parts["train"], name)
+        scored = {split: classification_metrics(parts[split][1], probabilities(model, parts[split][0], name, CLASSES))
+                  for split in ("val", "test")}
+        summary: dict[str, Any] = {"seeds": [], "replicates": 1, "degenerate_replicates": [],
+                                   "degenerate": int(degenerate(scored["test"]))}
+        for split, metrics in scored.items():
+            summary[split] = {k: {"mean": metrics[k], "sd": None, "per_seed": {"seed0": metrics[k]}} for k in SCALARS}
+        correct = model.predict(features(parts["test"][0], name)) == parts["test"][1]
+        summary["accuracy_ci"] = program_bootstrap(correct, test_programs, seed)
+        out[name] = summary
+    return out
