@@ -41,13 +41,30 @@ def test_table3_shows_a_models_mean_and_flags_a_degenerate_one():
     assert row_of(tables.table3("gear", summaries), "mlp")[1].startswith("**99.90")
 
 
-def test_table2_puts_the_profiles_settings_beside_the_papers():
-    ours = {"gear": {"lr": 0.000777, "decay_rate": 0.5, "decay_steps": 123, "batch_size": 64, "epochs": 9}}
-    table = tables.table2("smoke", ours, {"gear": {"mcrl_epochs": 7, "mcrl_seconds": 90.0, "all_seconds": 600.0}})
-    mine = table.rows[1]
-    assert mine[:7] == ["gear", "profile `smoke` (this report)", "0.000777", "0.5", "123", "64", "7 of 9"]
-    assert mine[7:] == ["1.5 min", "10.0 min"]
-    assert len(table.rows) == 2  # a shape the profile does not run has no rows
+def test_table2_puts_the_settings_the_stage_trains_with_beside_the_papers():
+    """Every number of our rows is what settings.training gives the train stage for that MCRL."""
+    from omegaconf import OmegaConf
+
+    from conftest import REPO
+    from toolpath.pipeline.settings import training
+
+    cfg = OmegaConf.load(REPO / "params.yaml")
+    ours = {"gear": {m: training(cfg, "gear", m)[1] for m in ("mcrl", "mcrl_xy")}}
+    ours["gear"]["mcrl"] = {**ours["gear"]["mcrl"], "schedule": "step", "patience": 3}
+    runs = {"gear": {"all_seconds": 600.0, "mcrl": {"seconds": 90.0, "epochs_run": 7},
+                     "mcrl_xy": {"seconds": 30.0, "epochs_run": 16}}}
+    table = tables.table2("smoke", ours, runs)
+    staircase, protocol = table.rows[1], table.rows[2]
+    settings = ours["gear"]["mcrl"]
+    assert staircase == ["gear", "profile `smoke`: mcrl", f"{settings['lr']:g}", f"{settings['decay_rate']:g}",
+                         str(settings["decay_steps"]), str(settings["batch_size"]), f"7 of {settings['epochs']}",
+                         "1.5 min", "10.0 min"]
+    xy = ours["gear"]["mcrl_xy"]
+    assert protocol[2] == f"{xy['lr']:g}" == f"{cfg.train.protocol.lr.mcrl_xy:g}"
+    assert protocol[3] == "- (onecycle)" and protocol[6] == str(cfg.train.protocol.settings.epochs)
+    assert protocol[7:] == ["0.5 min", "-"]
+    assert "early stopping on validation loss" in table.notes[0] and "no early stopping" in table.notes[0]
+    assert len(table.rows) == 3  # a shape the profile does not run has no rows
 
 
 def test_corpus_table_leaves_an_origin_without_windows_blank():

@@ -121,16 +121,18 @@ class Report:
         return {s: {m: read_json(files[(s, m)]) for m in self.cfg.train.models} for s in self.shapes}
 
     def hyperparameters(self) -> str:
+        from toolpath.pipeline.settings import training
+
         metrics = self.train_metrics()
         timing = {(s, m): self.layout.train_timing(s, m) for s in self.shapes for m in self.learned}
         require(list(timing.values()), "train")
+        anchors = [m for m in self.learned if self.cfg.models[m]["_target_"] == "toolpath.models.MCRL"]
         runs = {}
         for s in self.shapes:
             seconds = {m: sum(read_json(timing[(s, m)])["train_seconds"]) for m in self.learned}  # over the seeds
-            runs[s] = {"all_seconds": sum(seconds.values())}
-            if "mcrl" in seconds:
-                runs[s] |= {"mcrl_seconds": seconds["mcrl"], "mcrl_epochs": metrics[s]["mcrl"]["epochs_run"]}
-        ours = {s: OmegaConf.to_container(self.cfg.train[s]) for s in self.shapes}
+            runs[s] = {"all_seconds": sum(seconds.values()),
+                       **{m: {"seconds": seconds[m], "epochs_run": metrics[s][m]["epochs_run"]} for m in anchors}}
+        ours = {s: {m: training(self.cfg, s, m)[1] for m in anchors} for s in self.shapes}
         return self.table(table2(self.cfg.profile, ours, runs), "table2_hyperparameters")
 
     def performance(self) -> str:

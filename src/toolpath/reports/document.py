@@ -44,6 +44,18 @@ DIFFERENCES = (
     "(`conf/model/mcrl_tuned.yaml`, selected on 6 gear validation programs) did not hold on 39-81 test programs. "
     "Half of each shape's programs are test programs. The exact LocalCurvature rule is scored on the same test "
     "programs: it is the ceiling.",
+    "**Two inputs (Table 3a / 3b).** Table 3a feeds every architecture the paper's input, the window's 50 x 2 "
+    "coordinates moved to their centroid and scaled to unit RMS radius (no rotation), through learned first "
+    "layers of our design (`toolpath.models.inputs.DifferenceStem`: a convolution whose kernel sums to zero over "
+    "each segment, each segment's channel vector scaled to unit RMS, a second zero-sum convolution, GELU, back "
+    "to 2 channels); without the per-segment normalisation, or without the stem, every model stayed at the "
+    "majority class. Its models train under one protocol (`train.protocol`: the same epochs, batch, schedule, "
+    "augmentation and class weighting; each learning rate chosen from one grid on gear's validation programs, "
+    "`python -m toolpath.sweep.protocol`). Table 3b feeds the per-point turning terms (1 - cos, sin), whose "
+    "first channel summed over the window is LocalCurvature: there MCRL's settings were chosen by hand trials "
+    "scored on gear's test programs (`conf/model/mcrl_fused.yaml`), and the baselines train fewer epochs, so "
+    "Table 3b is not one protocol. A logistic regression on each flattened input shows what the input alone "
+    "gives. Table 3c gives MCRL minus every model with a paired interval over test programs and seeds.",
     "**Baselines.** ConvMixer, ConvNeXt and MaxViT are our 1-D adaptations of image models, sized within a factor "
     "of 2 of MCRL's parameters; ConvMixer and MaxViT embed 5 points per token (`patch: 5`), half the time per "
     "epoch of 2-point tokens at the same parameter count.",
