@@ -15,7 +15,15 @@ from omegaconf import OmegaConf
 from toolpath.pipeline import artifacts
 from toolpath.pipeline.artifacts import Layout, load_arrays, load_smoothed, load_windows
 from toolpath.pipeline.seeds import seed_for
-from toolpath.reports import classify_figures, corner_report, sequencing, smoothing, smoothing_tables, summary
+from toolpath.reports import (
+    classify_figures,
+    corner_report,
+    ranking,
+    sequencing,
+    smoothing,
+    smoothing_tables,
+    summary,
+)
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, table4
@@ -154,7 +162,13 @@ class Report:
         tables += [paired_table(s, paired[s]) for s in self.shapes if paired[s]]
         self.summaries["table3"] = summary.table3_summary(metrics)
         self.summaries["paired"] = summary.paired_summary(paired)
-        return self.table(tables, "table3_metrics")
+        text = self.table(tables, "table3_metrics")
+        blocks, dropped = ranking.accuracy_blocks(metrics, self.learned)
+        result = ranking.rank(blocks)
+        text += "\n" + self.table(ranking.ranking_table(result, blocks, dropped), "table3_ranking")
+        return text + "\n" + self.figure(ranking.cd_figure(result), "table3_ranking_cd",
+                                         "Critical-difference diagram of Table 3d: networks joined by a bar are not "
+                                         "shown to differ (Nemenyi, alpha 0.05)")
 
     def curves(self) -> str:
         files = {(s, m): self.layout.train_curves(s, m) for s in self.shapes for m in self.learned}
