@@ -68,3 +68,45 @@ def test_the_tuning_never_loads_the_test_split(tmp_path, monkeypatch):
     assert set(study["chosen"]) == {"mlp_xy", "cnn_xy"}
     assert (tmp_path / "reports/tuning/protocol.png").stat().st_size > 0
     assert "**" in (tmp_path / "reports/tuning/protocol.md").read_text()
+
+
+class Recording(dict):
+    """A parts mapping that logs which split is read, and when."""
+
+    def __init__(self, parts, log):
+        super().__init__(parts)
+        self.log = log
+
+    def __getitem__(self, key):
+        self.log.append(f"read {key}")
+        return super().__getitem__(key)
+
+
+def test_training_reads_the_test_split_only_after_the_model_is_fitted(monkeypatch):
+    """The train stage's and every sweep's one training call: fitting sees train and val only."""
+    from toolpath.training import classifier
+
+    X, y = easy_split(48)
+    log: list[str] = []
+    fit = classifier.TorchClassifier.fit
+
+    def logged_fit(self, *args, **kwargs):
+        log.append("fit starts")
+        out = fit(self, *args, **kwargs)
+        log.append("fit ends")
+        return out
+
+    monkeypatch.setattr(classifier.TorchClassifier, "fit", logged_fit)
+    parts = Recording({"train": (X[:24], y[:24] + 1), "val": (X[24:36], y[24:36] + 1),
+                       "test": (X[36:], y[36:] + 1)}, log)
+    network = {"_target_": "toolpath.models.MLP", "hidden": [8], "inputs": "turning"}
+    classifier.fit_and_score(network, {"epochs": 1, "batch_size": 8}, None, parts)
+    assert "read test" in log and log.index("read test") > log.index("fit ends")
+
+
+def test_the_optuna_sweep_loads_no_test_windows(tmp_path):
+    from toolpath.sweep.objective import load_splits
+
+    X, y = easy_split(30)
+    path = write_windows(tmp_path / "gear.npz", X, y + 1, np.arange(30) % 3)
+    assert set(load_splits(path)) == {"train", "val"}

@@ -124,9 +124,9 @@ def finish(spec: SweepSpec, study: optuna.Study, seconds: float | None = None) -
         "trials": {state.name.lower(): len(study.get_trials(states=(state,)))
                    for state in optuna.trial.TrialState},
         "best": {"number": best.number, "value": best.value, "params": best.params,
-                 "test_f1": best.user_attrs.get("test_f1")},
+                 "val_f1": best.user_attrs.get("val_f1")},
         "default": None if default is None else {"number": default.number, "value": default.value,
-                                                 "test_f1": default.user_attrs.get("test_f1")},
+                                                 "val_f1": default.user_attrs.get("val_f1")},
         "tuned_config": str(tuned_config(spec, study).relative_to(spec.root)),
         "figures": figures(spec, study),
         "base_overrides": list(spec.base_overrides),

@@ -258,11 +258,10 @@ def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[
             client.set_terminated(run_id, "FAILED")
             raise
         figures = {"objective": value, "val_f1": result["val"]["f1"], "val_accuracy": result["val"]["accuracy"],
-                   "test_f1": result["test"]["f1"], "test_accuracy": result["test"]["accuracy"],
                    "epochs_run": result["epochs_run"], "train_seconds": result["train_seconds"]}
         for key, number in figures.items():
             client.log_metric(run_id, key, float(number))
-        for key in ("test_f1", "test_accuracy", "val_accuracy", "epochs_run"):
+        for key in ("val_f1", "val_accuracy", "epochs_run"):
             trial.set_user_attr(key, figures[key])
         client.set_terminated(run_id)
         completed += 1
