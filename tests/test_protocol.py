@@ -20,11 +20,14 @@ def test_every_model_of_the_protocol_trains_the_same_settings_but_its_rate():
     assert len(listed) >= 2
     for shape in CFG.shapes:
         runs = {m: training(CFG, shape, m)[1] for m in listed}
-        shared = [{k: v for k, v in s.items() if k not in ("lr", "seed")} for s in runs.values()]
+        own = {"lr", "seed", *(k for option in CFG.train.protocol.get("structure", {}).values() for k in option)}
+        shared = [{k: v for k, v in s.items() if k not in own} for s in runs.values()]
         assert all(s == shared[0] for s in shared)
         assert all(runs[m]["lr"] == CFG.train.protocol.lr[m] for m in listed)
         assert shared[0]["epochs"] == CFG.train.protocol.settings.epochs and shared[0]["augment"] is True
         assert all(CFG.models[m].inputs == "coordinates" for m in listed)
+        for model, option in CFG.train.protocol.get("structure", {}).items():  # a structural choice, applied
+            assert all(runs[model][k] == v for k, v in option.items())
 
 
 def test_the_configured_rates_are_the_committed_study_s_choice():
@@ -34,16 +37,18 @@ def test_the_configured_rates_are_the_committed_study_s_choice():
     assert study["split"] == "val" and study["shape"] == CFG.train.protocol.tune.shape
     assert study["grid"] == list(CFG.train.protocol.tune.lr)
     assert study["chosen"] == {m: CFG.train.protocol.lr[m] for m in CFG.train.protocol.models}
-    assert protocol.choose(study["trials"]) == study["chosen"]  # the file agrees with itself
+    assert study["chosen_structure"] == OmegaConf.to_container(CFG.train.protocol.structure)
+    assert protocol.choose(study["trials"]) == (study["chosen"], study["chosen_structure"])  # self-consistent
     settings = OmegaConf.to_container(CFG.train.protocol.settings)
     assert study["settings"] == settings
 
 
-def test_choose_takes_the_highest_validation_f1_and_the_lower_rate_on_a_tie():
-    trials = [{"model": "a", "lr": 0.004, "val_f1": 0.9}, {"model": "a", "lr": 0.001, "val_f1": 0.9},
-              {"model": "a", "lr": 0.002, "val_f1": 0.8}, {"model": "b", "lr": 0.002, "val_f1": 0.7},
-              {"model": "b", "lr": 0.001, "val_f1": 0.6}]
-    assert protocol.choose(trials) == {"a": 0.001, "b": 0.002}
+def test_choose_takes_the_highest_validation_f1_and_the_earlier_trial_on_a_tie():
+    trials = [{"model": "a", "lr": 0.001, "val_f1": 0.9}, {"model": "a", "lr": 0.002, "val_f1": 0.8},
+              {"model": "a", "lr": 0.004, "val_f1": 0.9}, {"model": "b", "lr": 0.001, "val_f1": 0.6},
+              {"model": "b", "lr": 0.002, "val_f1": 0.7, "structure": {"aux_loss_weight": 0.0}},
+              {"model": "b", "lr": 0.001, "val_f1": 0.75, "structure": {"aux_loss_weight": 0.5}}]
+    assert protocol.choose(trials) == ({"a": 0.001, "b": 0.001}, {"b": {"aux_loss_weight": 0.5}})
 
 
 def test_the_tuning_never_loads_the_test_split(tmp_path, monkeypatch):
@@ -61,11 +66,12 @@ def test_the_tuning_never_loads_the_test_split(tmp_path, monkeypatch):
 
     monkeypatch.setattr(artifacts.WindowSet, "part", guarded)
     monkeypatch.chdir(tmp_path)
-    protocol.main(["+experiment=smoke", "train.protocol.models=[mlp_xy,cnn_xy]", "train.common.workers=1"])
+    protocol.main(["+experiment=smoke", "train.protocol.models=[mlp_xy,mcrl_xy]", "train.common.workers=1"])
     study = json.loads((tmp_path / "reports/tuning/protocol.json").read_text())
-    assert {(t["model"], t["lr"]) for t in study["trials"]} == {(m, lr) for m in ("mlp_xy", "cnn_xy")
-                                                               for lr in (1e-3, 3e-3)}
-    assert set(study["chosen"]) == {"mlp_xy", "cnn_xy"}
+    tried = [(t["model"], t["structure"].get("aux_loss_weight"), t["lr"]) for t in study["trials"]]
+    assert tried == [("mlp_xy", None, 1e-3), ("mlp_xy", None, 3e-3), ("mcrl_xy", 0.0, 1e-3), ("mcrl_xy", 0.0, 3e-3),
+                     ("mcrl_xy", 0.5, 1e-3), ("mcrl_xy", 0.5, 3e-3)]  # the listed order: options, then rates
+    assert set(study["chosen"]) == {"mlp_xy", "mcrl_xy"} and set(study["chosen_structure"]) == {"mcrl_xy"}
     assert (tmp_path / "reports/tuning/protocol.png").stat().st_size > 0
     assert "**" in (tmp_path / "reports/tuning/protocol.md").read_text()
 

@@ -20,7 +20,9 @@ from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 # keys under these may be added freely (names of models, per-model overrides, roughness overrides)
-FREE = ("models", "models.*", "train.per_model", "train.per_model.*", "train.protocol.lr", "qat.float_modules",
+FREE = ("models", "models.*", "train.per_model", "train.per_model.*", "train.protocol.lr", "train.protocol.structure",
+        "train.protocol.structure.*", "train.protocol.tune.structure", "train.protocol.tune.structure.*",
+        "qat.float_modules",
         "qat.per_model",
         "generate.*.roughness", "sweep", "hydra")
 

@@ -79,12 +79,14 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
 
 
 def protocol_settings(cfg: DictConfig, model: str) -> dict[str, Any]:
-    """``train.protocol.settings`` and the model's ``train.protocol.lr`` for a model the protocol lists
+    """``train.protocol.settings``, the model's ``train.protocol.structure`` and ``train.protocol.lr`` for a
+    model the protocol lists
     (they win over everything else of :func:`training`); nothing for any other model."""
     protocol = plain(cfg.train.get("protocol") or {})
     if model not in (protocol.get("models") or []):
         return {}
-    return {**(protocol.get("settings") or {}), "lr": protocol["lr"][model]}
+    own = (protocol.get("structure") or {}).get(model) or {}  # the model's structural choice (MCRL's heads)
+    return {**(protocol.get("settings") or {}), **own, "lr": protocol["lr"][model]}
 
 
 def _replicate_key(replicate: int) -> tuple[str, ...]:

@@ -54,7 +54,10 @@ def protocol_note(cfg) -> str | None:
             f"batch {settings.get('batch_size')}; each model's learning rate chosen from the grid "
             f"{', '.join(f'{r:g}' for r in protocol['tune']['lr'])} by validation macro F1 on "
             f"{protocol['tune']['shape']}'s validation programs, one seed (`python -m toolpath.sweep.protocol`, "
-            f"reports/tuning/protocol.md; the test split is never read): {rates}.")
+            f"reports/tuning/protocol.md; the test split is never read): {rates}." + "".join(
+                f" {m}'s own structure, tried at every rate in the same study and chosen there: "
+                + ", ".join(f"{k} {v:g}" for k, v in option.items()) + "."
+                for m, option in (protocol.get("structure") or {}).items() if m in protocol["models"]))
 
 
 class Missing(Exception):
