@@ -189,3 +189,20 @@ def test_a_table_renders_markdown_and_latex_with_every_row(builder):
         table = builder(optimize_metrics()[0])
     assert table.markdown().count("\n| ") == len(table.rows) + 1  # the header row and every row
     assert table.latex().count(r" \\") == len(table.rows) + 1
+
+
+def test_the_training_curves_draw_every_model_on_both_inputs():
+    """16 networks (8 architectures on two inputs) on one axis: one colour per architecture, the
+    paper's input dashed; more models than colours never stops the report."""
+    import numpy as np
+
+    from toolpath.reports.classify_figures import curves_figure
+
+    names = ["mcrl", "mlp", "cnn", "rnn", "lstm", "convmixer", "convnext", "maxvit", "extra1", "extra2"]
+    names += [n + "_xy" for n in names]
+    table = {"epoch": np.arange(1, 4), "val_accuracy": np.array([0.5, 0.7, 0.9])}
+    lines = curves_figure({"gear": {n: table for n in names}}, "val_accuracy", "v").axes[0].lines
+    assert len(lines) == len(names)
+    style = {line.get_label(): (line.get_color(), line.get_linestyle()) for line in lines}
+    assert style["cnn"][0] == style["cnn_xy"][0] and (style["cnn"][1], style["cnn_xy"][1]) == ("-", "--")
+    assert style["mcrl"][0] == style["mcrl_xy"][0] == "tab:red"

@@ -48,13 +48,18 @@ def confusion_panels(confusions: Mapping[str, np.ndarray], model: str) -> Figure
 
 def curves_figure(curves: Mapping[str, Mapping[str, Sequence[float]]], column: str, label: str) -> Figure:
     """Figs. 6-7: ``column`` (e.g. ``val_accuracy``) against the epoch, every model on one axis per
-    shape, MCRL red.  ``curves``: shape -> model -> the per-epoch CSV as columns."""
+    shape, MCRL red; one colour per architecture, dashed on the paper's input (``<name>_xy``, Table 3a).
+    ``curves``: shape -> model -> the per-epoch CSV as columns."""
+    from toolpath.reports.tables import paper_row
+
     fig, axes = plt.subplots(1, len(curves), figsize=(4.6 * len(curves), 3.6), dpi=120, squeeze=False)
     for ax, (shape, models) in zip(axes[0], curves.items(), strict=True):
-        others = iter(OTHER_COLOURS)
+        rows = list(dict.fromkeys(paper_row(m) for m in models if paper_row(m) != "mcrl"))
+        colour = {row: OTHER_COLOURS[k % len(OTHER_COLOURS)] for k, row in enumerate(rows)} | {"mcrl": MCRL_COLOUR}
         for model, table in models.items():
-            is_mcrl = model == "mcrl"
-            ax.plot(table["epoch"], table[column], label=model, color=MCRL_COLOUR if is_mcrl else next(others),
+            is_mcrl = paper_row(model) == "mcrl"
+            ax.plot(table["epoch"], table[column], label=model, color=colour[paper_row(model)],
+                    linestyle="--" if model != paper_row(model) else "-",
                     linewidth=2.2 if is_mcrl else 1.2, zorder=3 if is_mcrl else 2)
         ax.set_title(shape, fontsize=10)
         ax.set_xlabel("epoch")
