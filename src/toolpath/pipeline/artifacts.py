@@ -103,15 +103,8 @@ class Layout:
         return self.int8_dir(shape) / f"{model}.onnx"
 
     def train_metrics(self, shape: str, model: str) -> Path:
+        """A model's Table 3 figures, or the train stage's comparisons ("paired", "logistic")."""
         return self.metrics / "train" / shape / f"{model}.json"
-
-    def train_paired(self, shape: str) -> Path:
-        """MCRL against every other model on the same test windows (paired intervals)."""
-        return self.metrics / "train" / shape / "paired.json"
-
-    def train_logistic(self, shape: str) -> Path:
-        """The logistic-regression reference on each input (models.linear)."""
-        return self.metrics / "train" / shape / "logistic.json"
 
     def train_curves(self, shape: str, model: str) -> Path:
         return self.plots / "train" / shape / f"{model}.csv"
@@ -399,8 +392,7 @@ def read_rows(path: Path, producer: str, required: Iterable[str] = ()) -> list[d
     try:
         with path.open(newline="", encoding="utf-8") as fh:
             reader = csv.DictReader(fh)
-            rows = list(reader)
-            columns = reader.fieldnames or []
+            rows, columns = list(reader), reader.fieldnames or []
     except (UnicodeDecodeError, csv.Error) as exc:
         raise ArtifactError(path, f"not a readable CSV table ({exc})", producer) from None
     if missing := [c for c in required if c not in columns]:

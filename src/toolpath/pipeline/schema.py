@@ -201,6 +201,8 @@ def _relations(cfg: Mapping) -> Iterator[str]:
                 yield (f"shapes: {shape!r} has no {section}.{shape} section; the configured shapes are "
                        f"{', '.join(known)}")
                 break
+    for name in set(_section(cfg, "models")) & {"paired", "logistic"}:  # the train stage's comparison files
+        yield f"models.{name}: a reserved name (reports/metrics/train/<shape>/{name}.json is the train stage's)"
     protocol = _section(_section(cfg, "train"), "protocol")
     for name in protocol.get("models") or []:
         if name not in _section(cfg, "models") or name not in _section(protocol, "lr"):

@@ -98,8 +98,11 @@ def read_columns(path: Path) -> dict[str, np.ndarray]:
 class Report:
     """Builds the sections, writing each table and figure as it goes."""
 
-    def __init__(self, cfg, layout: Layout, out: Path) -> None:
+    def __init__(self, cfg, layout: Layout, out: Path,
+                 training: Callable[[str, str], dict] | None = None) -> None:
+        """``training(shape, model)``: the settings the train stage trained that model with (Table 2)."""
         self.cfg, self.layout, self.out = cfg, layout, out
+        self.training = training
         self.shapes = list(cfg.shapes)
         self.learned = [m for m in cfg.train.models if m != "rule"]
         self.written: list[Path] = []
@@ -132,8 +135,6 @@ class Report:
         return {s: {m: read_json(files[(s, m)]) for m in self.cfg.train.models} for s in self.shapes}
 
     def hyperparameters(self) -> str:
-        from toolpath.pipeline.settings import training
-
         metrics = self.train_metrics()
         timing = {(s, m): self.layout.train_timing(s, m) for s in self.shapes for m in self.learned}
         require(list(timing.values()), "train")
@@ -143,14 +144,16 @@ class Report:
             seconds = {m: sum(read_json(timing[(s, m)])["train_seconds"]) for m in self.learned}  # over the seeds
             runs[s] = {"all_seconds": sum(seconds.values()),
                        **{m: {"seconds": seconds[m], "epochs_run": metrics[s][m]["epochs_run"]} for m in anchors}}
-        ours = {s: {m: training(self.cfg, s, m)[1] for m in anchors} for s in self.shapes}
+        if self.training is None:
+            raise ValueError("Report(training=...) is needed for Table 2: the settings each MCRL trained with")
+        ours = {s: {m: self.training(s, m) for m in anchors} for s in self.shapes}
         return self.table(table2(self.cfg.profile, ours, runs), "table2_hyperparameters")
 
     def performance(self) -> str:
         metrics = self.train_metrics()
         inputs = {m: self.cfg.models[m].get("inputs", "turning") for m in self.learned}
         note = protocol_note(self.cfg)
-        logistic_files = {s: self.layout.train_logistic(s) for s in self.shapes}
+        logistic_files = {s: self.layout.train_metrics(s, "logistic") for s in self.shapes}
         require(list(logistic_files.values()), "train")
         logistic = {s: read_json(p) for s, p in logistic_files.items()}
         def rows(shape: str, block: str) -> dict:
@@ -159,7 +162,7 @@ class Report:
 
         tables = [table3(s, rows(s, block), block, note if block == "coordinates" else None)
                   for s in self.shapes for block in INPUT_BLOCKS if block in inputs.values()]
-        paired_files = {s: self.layout.train_paired(s) for s in self.shapes}
+        paired_files = {s: self.layout.train_metrics(s, "paired") for s in self.shapes}
         require(list(paired_files.values()), "train")
         paired = {s: read_json(p) for s, p in paired_files.items()}
         tables += [paired_table(s, paired[s]) for s in self.shapes if paired[s]]

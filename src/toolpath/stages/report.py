@@ -40,7 +40,8 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run("report", config.flat(cfg.report, "report")):
         import mlflow
 
-        report = Report(cfg, settings.layout(cfg), out)  # builds every table and figure
+        report = Report(cfg, settings.layout(cfg), out,  # builds every table and figure
+                        training=lambda shape, model: settings.training(cfg, shape, model)[1])
         sections = report.sections()
         commit, clean = source_state()
         (out / "report.md").write_text(report_markdown(sections, cfg.profile, commit, clean), encoding="utf-8")

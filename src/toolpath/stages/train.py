@@ -48,16 +48,10 @@ def main(argv: list[str] | None = None) -> None:
             if len(outcomes[outcome.job.model]) == (cfg.train.replicates if _learned(cfg, outcome.job.model) else 1):
                 saved[outcome.job.model] = _save_model(cfg, layout, args.shape, outcome.job.model,
                                                        outcomes[outcome.job.model], programs, example)
-        learned = {m: cfg.models[m].get("inputs", "turning") for m in cfg.train.models if _learned(cfg, m)}
-        anchors = [m for m in learned if cfg.models[m]["_target_"] == "toolpath.models.MCRL"]
-        test_y = data.part(artifacts.Split.TEST)[1]
-        artifacts.write_json(replicates.paired(outcomes, anchors, learned, test_y, programs["test"],
-                                               lambda a, b: config.seed_for(cfg.seed, "paired", args.shape, a, b)),
-                             layout.train_paired(args.shape))
-        reference_seed = config.seed_for(cfg.seed, "bootstrap", args.shape, "logistic")
-        artifacts.write_json(replicates.logistic_reference(data.parts(), sorted(set(learned.values())),
-                                                           programs["test"], reference_seed),
-                             layout.train_logistic(args.shape))
+        learned = {m: cfg.models[m] for m in cfg.train.models if _learned(cfg, m)}
+        seed = lambda kind, *names: config.seed_for(cfg.seed, kind, args.shape, *names)  # noqa: E731
+        for name, figures in replicates.comparisons(outcomes, learned, data.parts(), programs["test"], seed).items():
+            artifacts.write_json(figures, layout.train_metrics(args.shape, name))
         uris, summaries = {m: u for m, (u, _) in saved.items()}, {m: s for m, (_, s) in saved.items()}
         if (best := replicates.best_learned(summaries)) and uris.get(best):
             tracking.register_best(args.shape, uris[best], best)

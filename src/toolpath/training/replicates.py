@@ -177,3 +177,18 @@ def logistic_reference(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], input
         summary["accuracy_ci"] = program_bootstrap(correct, test_programs, seed)
         out[name] = summary
     return out
+
+
+def comparisons(outcomes: Mapping[str, Sequence[Outcome]], networks: Mapping[str, Mapping[str, Any]],
+                parts: Mapping[str, tuple[np.ndarray, np.ndarray]], test_programs: np.ndarray,
+                seed: Callable[..., int]) -> dict[str, dict]:
+    """The train stage's comparisons of one shape: ``paired`` (:func:`paired`: MCRL on each input against
+    the networks on its input) and ``logistic`` (:func:`logistic_reference` on every input a network
+    reads).  ``networks``: the learned models' configs; ``seed(kind, *names)``: the seed of one bootstrap
+    ("paired", anchor, rival; "bootstrap", "logistic")."""
+    inputs = {m: config.get("inputs", "turning") for m, config in networks.items()}
+    anchors = [m for m, config in networks.items() if config["_target_"] == "toolpath.models.MCRL"]
+    return {"paired": paired(outcomes, anchors, inputs, parts["test"][1], test_programs,
+                             lambda a, b: seed("paired", a, b)),
+            "logistic": logistic_reference(parts, sorted(set(inputs.values())), test_programs,
+                                           seed("bootstrap", "logistic"))}
