@@ -30,6 +30,9 @@ def test_the_time_block_names_every_family_and_the_total():
     timing = {"total_seconds": 1500.4, "families": {"train": 900.0, "qat": 600.4}}
     assert readme.time_block(timing).startswith("The last measured `dvc repro` of the default profile took 25.0 "
                                                 "minutes (1500 s; by stage family: train 900 s, qat 600 s)")
+    stopped = {**timing, "exit_code": 255, "stages": {"train@gear": 900.0, "report": 5.0}}
+    assert readme.time_block(stopped).startswith("The last measured `dvc repro` of the default profile stopped with "
+                                                 "exit code 255 in stage `report` after 25.0 minutes")
 
 
 def test_a_changed_source_makes_the_block_differ(tmp_path):

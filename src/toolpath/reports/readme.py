@@ -36,6 +36,12 @@ def time_block(timing: Mapping) -> str:
     """The default profile's measured time, by stage family, from ``reports/pipeline_time.json``."""
     families = sorted(timing["families"].items(), key=lambda kv: -kv[1])
     total = timing["total_seconds"]
+    if timing.get("exit_code", 0):  # a run that stopped is no measure of the whole pipeline: say so
+        last = list(timing.get("stages") or {"?": 0})[-1]
+        return (f"The last measured `dvc repro` of the default profile stopped with exit code {timing['exit_code']} "
+                f"in stage `{last}` after {total / 60:.1f} minutes ({total:.0f} s; by stage family: "
+                f"{', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}); see "
+                "`reports/pipeline_time.json`.")
     return (f"The last measured `dvc repro` of the default profile took {total / 60:.1f} minutes ({total:.0f} s; "
             f"by stage family: {', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}); "
             "`make repro` adds the install (about 2 minutes on a fresh clone) and writes these seconds per stage to "
