@@ -28,7 +28,7 @@ def mlflow_store(tmp_path, monkeypatch) -> str:
 
 
 def write_windows(path: Path, windows, label, split, program=None) -> Path:
-    """A windows file with the label stage's whole schema (the fields a test does not care about zero)."""
+    """A windows file with the generate stage's whole schema (the fields a test does not care about zero)."""
     import numpy as np
 
     from toolpath.pipeline.artifacts import WindowSet, save_windows
@@ -60,7 +60,7 @@ def easy_split(n=192, seed=0):
 @pytest.fixture(scope="module")
 def trained_mlp():
     """An MLP trained on :func:`easy_split` (QAT and runtime tests start from it)."""
-    from toolpath.training import TorchClassifier
+    from toolpath.models.training import TorchClassifier
 
     X, y = easy_split()
     settings = {"lr": 3e-3, "epochs": 15, "batch_size": 32, "decay_steps": 1000, "seed": 1}

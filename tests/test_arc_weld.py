@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from conftest import REPO
 from toolpath.gcode import ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff, pieced_hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.arc_weld import fit_arc, weld_arcs
 
 CORPUS = REPO.parent / "shared" / "gcode-corpus"

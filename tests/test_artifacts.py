@@ -80,7 +80,7 @@ def test_a_missing_or_corrupt_windows_file_names_the_file_and_the_stage(tmp_path
     path = tmp_path / "gear.npz"
     if content is not None:
         path.write_bytes(content)
-    with pytest.raises(ArtifactError, match=rf"gear.npz: {problem}.*; run `dvc repro label@gear`"):
+    with pytest.raises(ArtifactError, match=rf"gear.npz: {problem}.*; run `dvc repro generate@gear`"):
         artifacts.load_windows(path, "gear")
 
 
@@ -116,7 +116,7 @@ def test_a_checkpoint_whose_weights_do_not_fit_its_network_is_one_line(tmp_path)
     import torch
 
     from toolpath.models.registry import build
-    from toolpath.training.classifier import TorchClassifier, to_checkpoint
+    from toolpath.models.training.classifier import TorchClassifier, to_checkpoint
 
     clf = TorchClassifier(network={"_target_": "toolpath.models.MLP"}, settings={})
     clf.network_, clf.history_ = build(clf.network), []

@@ -42,7 +42,7 @@ def test_every_target_in_every_profile_instantiates_so_no_key_is_unused(tmp_path
     from hydra.utils import instantiate
 
     from toolpath.models.registry import schedule_for_shape, split_schedule
-    from toolpath.training.loop import TrainSettings
+    from toolpath.models.training.loop import TrainSettings
 
     overrides = [f"+experiment={experiment}"] if experiment else []
     cfg = OmegaConf.load(config.compose(overrides, root=REPO, output=tmp_path / "p.yaml"))
@@ -76,7 +76,7 @@ def test_label_bounds_drive_labelling_the_rule_and_the_report():
     assert list(params.models.rule.bounds) == list(params.label.bounds)
     assert "label.bounds" in (REPO / "dvc.yaml").read_text()
     from toolpath.gcode import read_text
-    from toolpath.labels import label_program
+    from toolpath.geometry.labels import label_program
 
     zigzag = read_text("G1 X0 Y0\n" + "".join(f"G1 X{i} Y{i % 2}\n" for i in range(1, 60)))
     assert label_program(zigzag).label.tolist() == [4]
@@ -95,7 +95,7 @@ def _matrix_items(stage: dict, params) -> list[dict]:
 def test_every_dvc_params_key_exists():
     params = OmegaConf.load(REPO / "params.yaml")
     stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
-    assert set(stages) >= {"generate", "label", "train"}
+    assert set(stages) >= {"generate", "train", "sequence"}
     for name, stage in stages.items():
         for item in _matrix_items(stage, params):
             for entry in stage.get("params", []):

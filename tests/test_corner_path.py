@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from toolpath.corners.cases import CASES, case_path
 from toolpath.corners.path import CornerSettings, corner_frames, corner_smoother, smooth_path
 from toolpath.corners.pso import PsoSettings
 from toolpath.corners.transitions import bezier_curve, bezier_transition, bspline_transition
@@ -13,7 +14,6 @@ from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import polyline_radius
 from toolpath.feedrate.scurve import ramp_distance, ramp_time
 from toolpath.geometry.deviation import point_to_polyline
-from toolpath.shapes.cases import CASES, case_path
 
 MACHINE = Machine(feed=100.0, period=0.001, chord_error=0.001, contour_error=0.005, normal_acceleration=2000.0,
                   normal_jerk=50000.0, tangential_acceleration=2000.0, tangential_jerk=50000.0, kp=400.0,

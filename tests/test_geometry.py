@@ -38,6 +38,17 @@ def test_one_right_angle_corner_counts_one():
     assert local_curvature(corner) == pytest.approx(1.0)
 
 
+def test_reduction_of_a_square_corner_rounded_to_two_half_turns():
+    from toolpath.geometry.curvature import reduction_pct
+
+    square = np.array([[0, 0], [1, 0], [1, 1]], dtype=float)  # one right angle: 1
+    chamfered = np.array([[0, 0], [0.5, 0], [1, 0.5], [1, 1]], dtype=float)  # two 45-degree turns
+    after = local_curvature(chamfered)
+    assert after == pytest.approx(2 * (1 - math.cos(math.pi / 4)))
+    assert reduction_pct(local_curvature(square), after) == pytest.approx(100 * (1 - 2 + math.sqrt(2)))
+    assert reduction_pct(0.0, 0.0) == 0.0  # a straight window has nothing to remove
+
+
 def test_reversal_counts_two():
     back = np.array([[0, 0], [1, 0], [0, 0]], dtype=float)
     assert local_curvature(back) == pytest.approx(2.0)

@@ -6,9 +6,8 @@ import sys
 
 import pytest
 
-DOMAIN = ("gcode", "geometry", "shapes", "labels", "models", "training", "smoothing", "corners", "inference",
-          "feedrate", "sequencing", "smooth",
-          "reports")
+DOMAIN = ("gcode", "geometry", "geometry.labels", "shapes", "shapes.sequencing", "models", "models.training",
+          "smoothing", "corners", "inference", "feedrate", "smooth", "reports")
 WIRING = ("stages", "sweep", "pipeline.config", "pipeline.tracking", "cli", "pipeline.stage_times")
 CHECK = """
 import importlib, sys

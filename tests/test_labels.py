@@ -5,7 +5,7 @@ import pytest
 
 from test_geometry import plain_local_curvature
 from toolpath.gcode import read_text
-from toolpath.labels import categorize, cut_windows, feed_runs, label_program, split_by_program
+from toolpath.geometry.labels import categorize, cut_windows, feed_runs, label_program, split_by_program
 
 
 def test_table1_bounds_inclusive_and_exclusive_ends():
@@ -68,7 +68,7 @@ def test_arc_share_counts_the_points_an_arc_reaches_per_window():
     X0 (where the rapid left the tool), so the first window (points 0-49) is all lines and the second
     (points 50-99) holds X50-X60, 11 line points, and 39 arc points: share 39/50."""
     from toolpath.gcode import ReaderOptions
-    from toolpath.labels.windows import arc_share
+    from toolpath.geometry.labels.windows import arc_share
 
     lines = ["G21 G90 G17", "G0 X0 Y0", "G1 F100"] + [f"X{k}" for k in range(1, 61)] + ["G2 X80 Y0 I10 J0"]
     program = read_text("\n".join(lines) + "\n", options=ReaderOptions(chord_tolerance=0.0005))
@@ -79,7 +79,7 @@ def test_arc_share_counts_the_points_an_arc_reaches_per_window():
 
 
 def test_corpus_report_splits_arc_windows_from_line_windows_by_hand():
-    from toolpath.training.generalise import corpus_report
+    from toolpath.models.training.generalise import corpus_report
 
     y = np.array([1, 1, 2, 3, 1, 4])
     proba = np.eye(4)[np.array([1, 2, 2, 3, 1, 1]) - 1]  # one line window of category 1 and the 4 wrong

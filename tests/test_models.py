@@ -9,7 +9,7 @@ from sklearn.metrics import accuracy_score, f1_score
 
 from conftest import REPO
 from toolpath.geometry import local_curvature
-from toolpath.labels import categorize
+from toolpath.geometry.labels import categorize
 from toolpath.models import (
     LocalCurvatureRule,
     build,
@@ -20,7 +20,7 @@ from toolpath.models import (
 )
 from toolpath.models.inputs import Prepare, turning_features
 from toolpath.models.registry import parameter_count
-from toolpath.training import TorchClassifier
+from toolpath.models.training import TorchClassifier
 
 # the composed configs (conf/model/rule.yaml takes its bounds from conf/label)
 CONFIGS = OmegaConf.to_container(OmegaConf.load(REPO / "params.yaml").models, resolve=True)
@@ -262,7 +262,7 @@ def test_metrics_equal_sklearn_on_a_hand_made_case():
     from sklearn.metrics import f1_score as f1
     from sklearn.metrics import precision_score, recall_score, roc_auc_score
 
-    from toolpath.training.metrics import classification_metrics
+    from toolpath.models.training.metrics import classification_metrics
 
     y = np.array([1, 1, 2, 2, 3, 4, 4, 4])
     proba = np.array([[.7, .1, .1, .1], [.2, .5, .2, .1], [.1, .8, .05, .05], [.6, .2, .1, .1],

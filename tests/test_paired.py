@@ -4,8 +4,8 @@ and seeds together; the point estimate is scikit-learn's seed-mean difference.""
 import numpy as np
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score
 
-from toolpath.training.metrics import DEGENERATE, paired_bootstrap
-from toolpath.training.replicates import Job, Outcome, paired
+from toolpath.models.training.metrics import DEGENERATE, paired_bootstrap
+from toolpath.models.training.replicates import Job, Outcome, paired
 
 RNG = np.random.default_rng(0)
 Y = RNG.integers(1, 5, 400)
@@ -72,7 +72,7 @@ def test_the_logistic_reference_reads_each_input_and_separates_lines_from_zigzag
 
     from conftest import easy_split
     from toolpath.models.linear import features, fit_logistic
-    from toolpath.training.replicates import logistic_reference
+    from toolpath.models.training.replicates import logistic_reference
 
     X, y = easy_split(96)
     assert features(X, "turning").shape == (96, 100) and features(X, "coordinates").shape == (96, 100)

@@ -196,7 +196,7 @@ def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
     from toolpath.pipeline import artifacts
     from toolpath.pipeline.artifacts import Split
 
-    X = artifacts.load_windows(work / "data/windows/gear.npz", "label@gear").part(Split.TEST)[0][:512]
+    X = artifacts.load_windows(work / "data/windows/gear.npz", "generate@gear").part(Split.TEST)[0][:512]
     fp32 = artifacts.load_classifier(work / "models/gear/mlp.pt", "train@gear").network_.eval()
     import torch
 

@@ -90,7 +90,7 @@ class Recording(dict):
 
 def test_training_reads_the_test_split_only_after_the_model_is_fitted(monkeypatch):
     """The train stage's and every sweep's one training call: fitting sees train and val only."""
-    from toolpath.training import classifier
+    from toolpath.models.training import classifier
 
     X, y = easy_split(48)
     log: list[str] = []

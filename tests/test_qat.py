@@ -7,7 +7,7 @@ from conftest import REPO, easy_split
 from toolpath.inference import qat
 from toolpath.inference.timing import MCRL_GROUPS, branch_profile, timed
 from toolpath.models import MCRL
-from toolpath.training.loop import TrainSettings, predict_logits
+from toolpath.models.training.loop import TrainSettings, predict_logits
 
 
 def test_qat_keeps_accuracy_saves_int8_and_reloads_identically(trained_mlp, tmp_path):

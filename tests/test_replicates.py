@@ -4,8 +4,8 @@ bootstrap of the seed mean, the job order, and Table 3 / the README line built f
 import numpy as np
 import pytest
 
-from toolpath.training.metrics import DEGENERATE, classification_metrics
-from toolpath.training.replicates import Job, Outcome, best_learned, describe, job_order, summarise
+from toolpath.models.training.metrics import DEGENERATE, classification_metrics
+from toolpath.models.training.replicates import Job, Outcome, best_learned, describe, job_order, summarise
 
 Y = np.array([1, 1, 1, 1, 2, 2, 3, 4])
 PROGRAMS = np.array([0, 0, 1, 1, 2, 2, 3, 3])
@@ -88,7 +88,7 @@ def test_two_workers_give_the_bytes_one_worker_gives():
     """Each run depends on its job and the thread count only, never on which worker ran it or when."""
     import torch
 
-    from toolpath.training.replicates import run_all
+    from toolpath.models.training.replicates import run_all
 
     rng = np.random.default_rng(0)
     windows = rng.normal(size=(48, 50, 2)).cumsum(axis=1).astype(np.float32)

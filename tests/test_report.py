@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from conftest import REPO
+from toolpath.models.training.metrics import DEGENERATE
 from toolpath.pipeline import config
 from toolpath.reports.document import README_BEGIN, README_END, Section, replace_block
 from toolpath.reports.readme import main as readme_main
 from toolpath.reports.summary import table3_summary
 from toolpath.reports.tables import categories_table
 from toolpath.stages import report
-from toolpath.training.metrics import DEGENERATE
 
 SHAPES = ("gear", "pentagram", "maple_leaf")
 
@@ -151,9 +151,9 @@ def test_blocks_sections_and_summaries():
 
 def test_table5_draws_one_test_window_per_category_and_scores_each_model():
     from toolpath.geometry import local_curvature
-    from toolpath.labels import categorize
+    from toolpath.geometry.labels import categorize
     from toolpath.models.rule import LocalCurvatureRule
-    from toolpath.training.examples import draw_per_category, predictions
+    from toolpath.models.training.examples import draw_per_category, predictions
 
     rng = np.random.default_rng(0)
     windows = rng.normal(size=(40, 50, 2)).cumsum(axis=1).astype(np.float32)
@@ -184,7 +184,7 @@ def test_drawn_window_keeps_its_category_and_says_when_it_falls_back():
 
 
 def test_a_model_predicting_one_class_is_shown_as_degenerate_never_scored():
-    from toolpath.training.metrics import classification_metrics, degenerate
+    from toolpath.models.training.metrics import classification_metrics, degenerate
 
     y = np.array([1, 1, 1, 2, 3, 4])
     majority = classification_metrics(y, np.tile([0.7, 0.1, 0.1, 0.1], (6, 1)))
@@ -194,7 +194,7 @@ def test_a_model_predicting_one_class_is_shown_as_degenerate_never_scored():
 
 
 def test_program_bootstrap_hand_cases():
-    from toolpath.training.metrics import program_bootstrap
+    from toolpath.models.training.metrics import program_bootstrap
 
     perfect = program_bootstrap(np.ones(30, bool), np.repeat(np.arange(6), 5), seed=0)
     assert (perfect["low"], perfect["high"], perfect["programs"]) == (1.0, 1.0, 6)

@@ -11,8 +11,8 @@ import json
 import pytest
 
 from conftest import REPO
+from toolpath.models.training.metrics import DEGENERATE
 from toolpath.reports import corner_report, sequencing, smoothing, smoothing_tables, speed, tables
-from toolpath.training.metrics import DEGENERATE
 
 METRICS = REPO / "reports" / "metrics"
 SHAPES = ("gear", "pentagram", "maple_leaf")

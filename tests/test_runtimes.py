@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from toolpath.inference import qat
-from toolpath.training.loop import TrainSettings, predict_logits
+from toolpath.models.training.loop import TrainSettings, predict_logits
 
 pytest.importorskip("onnxruntime", reason="the `runtimes` extra of pyproject.toml is not installed")
 pytest.importorskip("openvino", reason="the `runtimes` extra of pyproject.toml is not installed")
@@ -128,7 +128,7 @@ def test_smooth_classifier_runs_an_onnx_file_in_either_runtime(trained_mlp, tmp_
 def test_score_gives_each_runtime_its_metrics_and_int8_drop(trained_mlp, int8_file, tmp_path):
     from toolpath.inference import runtimes as shipped_runtimes
     from toolpath.models.rule import CLASSES
-    from toolpath.training.metrics import classification_metrics
+    from toolpath.models.training.metrics import classification_metrics
 
     def metrics(t, p):
         return classification_metrics(CLASSES[t], p)

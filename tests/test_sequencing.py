@@ -5,11 +5,11 @@ import pytest
 
 from toolpath.gcode import Motion, read_text
 from toolpath.gcode.writer import ProgramSpec
-from toolpath.sequencing import Part, Sheet, make_sheet, part_tree, plan_path, run_sheet, s_shaped_regions, score
-from toolpath.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
-from toolpath.sequencing.program import sheet_program, visit_path
-from toolpath.sequencing.regions import _Geometry, inflexion_part, partial_sort, reverse_rows
-from toolpath.sequencing.transitions import best_transition, candidate_pairs
+from toolpath.shapes.sequencing import Part, Sheet, make_sheet, part_tree, plan_path, run_sheet, s_shaped_regions, score
+from toolpath.shapes.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
+from toolpath.shapes.sequencing.program import sheet_program, visit_path
+from toolpath.shapes.sequencing.regions import _Geometry, inflexion_part, partial_sort, reverse_rows
+from toolpath.shapes.sequencing.transitions import best_transition, candidate_pairs
 
 ALGORITHM = {"expansions": 2, "start_up": True, "max_handling": 6, "neighbours": 6}
 

@@ -19,7 +19,7 @@ from conftest import REPO
 from toolpath.gcode import read_text
 from toolpath.gcode.edit import substitute_plain_xy, substitute_xy
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.models.rule import LocalCurvatureRule
 from toolpath.smooth import command as cli
 from toolpath.smooth.rewrite import RewriteOptions, smooth_program

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from test_smooth import _run
 from toolpath.gcode import ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 
 
 def rough_with_block_delete(n: int = 400, seed: int = 1) -> str:

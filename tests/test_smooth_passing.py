@@ -12,7 +12,7 @@ import pytest
 
 from toolpath.gcode import ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.command import main
 
 

@@ -1,4 +1,4 @@
-"""The generate and label stage modules on the smoke profile, in a temporary directory."""
+"""The stage modules on the smoke profile, in a temporary directory."""
 
 import json
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from conftest import REPO, write_windows
-from toolpath.pipeline import config
-from toolpath.stages import generate, label
+from toolpath.pipeline import config, tracking
+from toolpath.stages import generate
 
 
 @pytest.fixture
@@ -18,15 +18,15 @@ def smoke_dir(tmp_path, monkeypatch, mlflow_store):
     return tmp_path
 
 
-def test_generate_then_label_writes_outs_metrics_and_mlflow_runs(smoke_dir):
+def test_generate_writes_programs_windows_metrics_and_mlflow_runs(smoke_dir):
     generate.main(["--shape", "pentagram"])
     files = sorted((smoke_dir / "data/gcode/pentagram").glob("*.nc"))
     assert len(files) == 4
-    first = files[0].read_bytes()
+    first, windows_file = files[0].read_bytes(), smoke_dir / "data/windows/pentagram.npz"
+    first_windows = windows_file.read_bytes()
     generate.main(["--shape", "pentagram"])  # same seed, same bytes
-    assert files[0].read_bytes() == first
-    label.main(["--shape", "pentagram"])
-    data = np.load(smoke_dir / "data/windows/pentagram.npz")
+    assert files[0].read_bytes() == first and windows_file.read_bytes() == first_windows
+    data = np.load(windows_file)
     assert set(data.files) >= {"windows", "origin", "local_curvature", "label", "program", "first_line", "split"}
     n = len(data["label"])
     assert data["windows"].shape == (n, 50, 2) and data["windows"].dtype == np.float32
@@ -36,26 +36,23 @@ def test_generate_then_label_writes_outs_metrics_and_mlflow_runs(smoke_dir):
     assert set(metrics["local_curvature"]) == {"q05", "q25", "q50", "q75", "q95"}
     runs = mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
     names = sorted(r.info.run_name for r in runs)
-    assert names.count("generate@pentagram") == 2 and "label@pentagram" in names
-    parents = {r.data.tags.get("mlflow.parentRunId") for r in runs if r.info.run_name.startswith(("gen", "lab"))}
+    assert names.count("generate@pentagram") == 2
+    parents = {r.data.tags.get("mlflow.parentRunId") for r in runs if r.info.run_name.startswith("gen")}
     assert len(parents) == 1 and None not in parents  # every stage run nests under one pipeline run
-    child = next(r for r in runs if r.info.run_name == "label@pentagram")
-    assert child.data.metrics["label.windows"] == n and child.info.status == "FINISHED"
+    child = next(r for r in runs if r.info.run_name == "generate@pentagram")
+    assert child.data.metrics["label.windows"] == n and child.data.metrics["generate.programs"] == 4
+    assert child.info.status == "FINISHED" and child.data.params["label.window"] == "50"
 
 
-def test_label_without_gcode_exits_with_a_message(smoke_dir):
-    with pytest.raises(SystemExit, match="no G-code in"):
-        label.main(["--shape", "gear"])
-
-
-def test_label_names_file_and_line_of_a_malformed_program(smoke_dir):
+def test_labelling_names_file_and_line_of_a_malformed_program(smoke_dir):
     bad = smoke_dir / "data/gcode/gear/gear_000.nc"
     bad.parent.mkdir(parents=True)
     bad.write_text("G21\nG1 X1 Y1\nG1 X#<depth>\n")
-    with pytest.raises(SystemExit, match=r"gear_000.nc:3: word X: named parameter #<depth> is read before it is set"):
-        label.main(["--shape", "gear"])
+    problem = r"gear_000.nc:3: word X: named parameter #<depth> is read before it is set"
+    with pytest.raises(SystemExit, match=problem), tracking.stage_run("generate@gear"):
+        generate.label_programs(config.load(), "gear", [bad])
     runs = mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
-    assert [r.info.status for r in runs if r.info.run_name == "label@gear"] == ["FAILED"]
+    assert [r.info.status for r in runs if r.info.run_name == "generate@gear"] == ["FAILED"]
 
 
 def _trained(smoke_dir, shape, model):
@@ -67,7 +64,6 @@ def _trained(smoke_dir, shape, model):
 
 def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     generate.main(["--shape", "maple_leaf"])
-    label.main(["--shape", "maple_leaf"])
     metrics = _trained(smoke_dir, "maple_leaf", "mlp")
     first = (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes()
     for split in ("val", "test"):
@@ -122,7 +118,7 @@ def test_train_refuses_windows_of_one_category(smoke_dir):
 
     write_windows(smoke_dir / "data/windows/gear.npz", np.zeros((6, 50, 2)), [1] * 6, [0, 0, 1, 1, 2, 2])
     with pytest.raises(SystemExit, match=r"gear.npz: the train split holds windows of category 1 only; check "
-                                         r"label.bounds .*`dvc repro label@gear`"):
+                                         r"label.bounds .*`dvc repro generate@gear`"):
         train.main(["--shape", "gear"])
     assert not (smoke_dir / "reports/metrics/train/gear").exists()
 
@@ -144,7 +140,6 @@ def test_optimize_stage_writes_rows_summary_curves_and_repeats(smoke_dir):
     from toolpath.stages import optimize
 
     generate.main(["--shape", "gear"])
-    label.main(["--shape", "gear"])
     optimize.main(["--shape", "gear"])
     summary_path = smoke_dir / "reports/metrics/optimize/gear.json"
     first = summary_path.read_bytes()

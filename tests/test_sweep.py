@@ -13,12 +13,12 @@ import optuna
 import pytest
 from omegaconf import OmegaConf
 
-import toolpath.models  # noqa: F401  (before toolpath.training: the two import each other)
+import toolpath.models  # noqa: F401  (before toolpath.models.training: the two import each other)
 from conftest import REPO
 from toolpath.pipeline import config
 from toolpath.pipeline.config import compose_config as compose
 from toolpath.pipeline.settings import training as model_and_settings
-from toolpath.stages import generate, label
+from toolpath.stages import generate
 from toolpath.sweep import overrides, parse_space
 from toolpath.sweep.__main__ import _shares
 from toolpath.sweep.__main__ import main as sweep_main
@@ -41,7 +41,6 @@ def windows_dir(tmp_path_factory):
     try:
         os.chdir(root)
         generate.main(["--shape", "gear"])
-        label.main(["--shape", "gear"])
     finally:
         os.chdir(old)
         for key, value in env.items():
@@ -193,7 +192,7 @@ def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):
     assert sweep_main(["--config", "nope"]) == 2
     assert "conf/sweep/nope.yaml not found" in capsys.readouterr().err
     assert sweep_main([*SMOKE, "sweep.shape=maple_leaf"]) == 2  # no windows for that shape here
-    assert "dvc repro label@maple_leaf" in capsys.readouterr().err
+    assert "dvc repro generate@maple_leaf" in capsys.readouterr().err
     assert sweep_main([*SMOKE, "sweep.model=unknown"]) == 2
     assert "sweep.model" in capsys.readouterr().err
     (sweep_dir / "optuna.db").write_bytes(bytes(range(256)) * 40)  # a damaged study database

@@ -6,7 +6,7 @@ import torch
 
 from toolpath.models.inputs import Prepare, turning_features
 from toolpath.models.mcrl import _Branch
-from toolpath.training.loop import TrainSettings, fit_network
+from toolpath.models.training.loop import TrainSettings, fit_network
 
 
 def _data(n=64, seed=0):

@@ -33,7 +33,7 @@ from pathlib import Path
 from toolpath.gcode import ReaderOptions, read_text
 from toolpath.gcode.reader import MM_PER_INCH
 from toolpath.geometry.hausdorff import pieced_hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 
 TOLERANCE = 0.01  # mm: the setting for both tools
 CHORD = 1e-5      # mm: arcs read back as chords this close to them, for the deviation

@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from toolpath.corners.cases import case_path
 from toolpath.corners.curve import evaluate
 from toolpath.corners.path import (
     CornerSettings,
@@ -23,7 +24,6 @@ from toolpath.corners.pso import PsoSettings
 from toolpath.feedrate.assess import assess
 from toolpath.feedrate.limits import Machine, polyline_radius
 from toolpath.pipeline.seeds import seed_for
-from toolpath.shapes.cases import case_path
 
 PoolMap = Callable[[Callable, list, str], list]
 CORNER_FIELDS = ("case", "method", "vertex", "turn_deg", "leg", "curvature_before", "curvature_method1",

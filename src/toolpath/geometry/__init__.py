@@ -1,4 +1,5 @@
-"""Vectorised path geometry (batches of shape (..., n, 2)): Eq. 1-3 and 8-10, deviation."""
+"""Vectorised path geometry (batches of shape (..., n, 2)): Eq. 1-3 and 8-10, deviation; and the 50-point
+windows labelled by it (Algorithm 1, Table 1: :mod:`~toolpath.geometry.labels`)."""
 
 from toolpath.geometry.curvature import (
     arc_length,

@@ -71,3 +71,8 @@ def drop_repeated(points: np.ndarray, tolerance: float = 0.0) -> tuple[np.ndarra
     step = np.linalg.norm(np.diff(p, axis=0), axis=1)
     keep = np.concatenate([[True], step > tolerance])
     return p[keep], keep
+
+
+def reduction_pct(before: float, after: float) -> float:
+    """Curvature reduction in per cent (0 for a window that had no curvature to remove)."""
+    return 100.0 * (1.0 - after / before) if before > 0 else 0.0

@@ -29,10 +29,10 @@ import torch
 from torch import nn
 
 from toolpath.models.rule import CLASSES as CATEGORIES
-from toolpath.training.classifier import from_checkpoint
-from toolpath.training.loop import EpochRecord, TrainSettings, fit_network, predict_logits
-from toolpath.training.metrics import classification_metrics
-from toolpath.training.progress import EpochBar
+from toolpath.models.training.classifier import from_checkpoint
+from toolpath.models.training.loop import EpochRecord, TrainSettings, fit_network, predict_logits
+from toolpath.models.training.metrics import classification_metrics
+from toolpath.models.training.progress import EpochBar
 
 # compute ops we classify; the rest (reshapes, activations, pooling, quant/dequant) carry no weights
 COMPUTE_OPS = ("linear", "conv1d", "conv2d", "matmul", "bmm", "mm", "addmm", "einsum", "rnn_tanh", "lstm",

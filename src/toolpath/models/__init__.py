@@ -1,13 +1,21 @@
-"""Window classifiers: MCRL, its seven baselines, the exact LocalCurvature rule, one registry."""
+"""Window classifiers: MCRL, its seven baselines, the exact LocalCurvature rule, one registry; and how they are
+trained and scored (:mod:`~toolpath.models.training`).
 
-from toolpath.models.classic import CNN, LSTM, MLP, RNN
-from toolpath.models.inputs import prepare, random_reversal, random_rotation_reflection
-from toolpath.models.mcrl import MCRL
-from toolpath.models.modern import ConvMixer1d, ConvNeXt1d, MaxViT1d
-from toolpath.models.registry import build, is_learned
-from toolpath.models.rule import LocalCurvatureRule
+The names below load on first use (PEP 562): the training metrics alone (what the report and the product
+read) do not import torch.
+"""
 
-__all__ = [
-    "CNN", "LSTM", "MCRL", "MLP", "RNN", "ConvMixer1d", "ConvNeXt1d",
-    "LocalCurvatureRule", "MaxViT1d", "build", "is_learned", "prepare", "random_reversal", "random_rotation_reflection",
-]
+from importlib import import_module
+
+_HOMES = {**{name: "classic" for name in ("CNN", "LSTM", "MLP", "RNN")},
+          **{name: "inputs" for name in ("prepare", "random_reversal", "random_rotation_reflection")},
+          "MCRL": "mcrl", **{name: "modern" for name in ("ConvMixer1d", "ConvNeXt1d", "MaxViT1d")},
+          "build": "registry", "is_learned": "registry", "LocalCurvatureRule": "rule"}
+
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'toolpath.models' has no attribute {name!r}")
+    return getattr(import_module(f"toolpath.models.{_HOMES[name]}"), name)

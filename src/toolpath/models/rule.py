@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 
 from toolpath.geometry.curvature import local_curvature
-from toolpath.labels.categories import TABLE1_BOUNDS, categorize
+from toolpath.geometry.labels.categories import TABLE1_BOUNDS, categorize
 
 CLASSES = np.array([1, 2, 3, 4])
 

@@ -215,7 +215,7 @@ def load_arrays(path: Path, required: Iterable[str], what: str, producer: str) -
 
 @dataclass(frozen=True)
 class WindowSet:
-    """One shape's labelled windows (the label stage's output).
+    """One shape's labelled windows (the generate stage's output).
 
     ``windows`` (N, 50, 2) float32 relative to each window's first point, ``origin`` (N, 2), ``label``
     (Table 1 category 1-4), ``split`` (:class:`Split` codes), ``program`` (index into
@@ -248,7 +248,7 @@ def save_windows(windows: WindowSet, path: Path) -> None:
 
 def load_windows(path: Path, shape: str | None = None) -> WindowSet:
     """A windows file, checked against :class:`WindowSet`'s schema."""
-    producer = f"label@{shape}" if shape else "label"
+    producer = f"generate@{shape}" if shape else "generate"
     arrays = load_arrays(path, [f.name for f in fields(WindowSet)], "windows", producer)
     w = arrays["windows"]
     n = len(w)
@@ -312,7 +312,7 @@ def load_checkpoint(path: Path, producer: str = "train") -> dict:
 def load_classifier(path: Path, producer: str = "train") -> Any:
     """The fitted classifier of a checkpoint; weights that do not fit the network they name (a file
     from another version, a damaged one) stop with one line instead of a traceback."""
-    from toolpath.training.classifier import from_checkpoint
+    from toolpath.models.training.classifier import from_checkpoint
 
     checkpoint = load_checkpoint(path, producer)
     try:

@@ -107,7 +107,7 @@ def qat_training(cfg: DictConfig, shape: str, model: str):
     rate carries over) at ``qat.lr_scale`` times the learning rate, for ``qat.epochs`` (or the model's
     ``qat.per_model.<model>.epochs``), its own seed.
     QAT trains without early stopping or auxiliary losses (:func:`toolpath.inference.qat.train_qat`)."""
-    from toolpath.training.loop import TrainSettings
+    from toolpath.models.training.loop import TrainSettings
 
     _, settings = training(cfg, shape, model)
     own = plain((cfg.qat.get("per_model") or {}).get(model) or {})

@@ -246,7 +246,7 @@ SYSTEM_METRICS_SECONDS = 5.0  # a stage's CPU / memory sampled this often (MLflo
 
 @contextlib.contextmanager
 def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) -> Iterator[Any]:
-    """Open the child run of ``stage`` (e.g. ``label@gear``) under the pipeline's parent run, started
+    """Open the child run of ``stage`` (e.g. ``generate@gear``) under the pipeline's parent run, started
     when this process started; on exit the parent's end moves to now.
 
     The run (and the parent) is marked FAILED if the body raises.  Params are logged once, as given.
@@ -355,7 +355,7 @@ def log_onnx_model(name: str, path: Path, tags: Mapping[str, str]) -> str:
 
 
 def register_best(shape: str, model_uri: str, model: str) -> None:
-    """Register the shape's best model (one definition: :func:`toolpath.training.replicates.best_learned`)
+    """Register the shape's best model (one definition: :func:`toolpath.models.training.replicates.best_learned`)
     as ``toolpath-<shape>`` with the alias ``best``: ``models:/toolpath-<shape>@best``."""
     import mlflow
 
@@ -380,7 +380,7 @@ def record_up_to_date(stages: set[str]) -> dict[str, str]:
             if tags.get("mlflow.parentRunId") == parent:
                 ran_now.add(name)  # runs of one process share a start time: order alone cannot tell
             latest.setdefault(name, run)
-    # MLflow keys take no "@": label@gear is tagged up_to_date.label.gear
+    # MLflow keys take no "@": generate@gear is tagged up_to_date.generate.gear
     skipped = {f"up_to_date.{name.replace('@', '.')}": f"up to date, produced by run {run.info.run_id} "
                f"({run.data.tags.get('pipeline_key', '?')})"
                for name, run in sorted(latest.items()) if name not in ran_now}

@@ -28,9 +28,9 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str],
     LocalCurvature reduction on categories 2-4 within the tube (``_vs_rough``: against the rough window) of
     each paper smoother and the dispatch, and the machining time each saves (``_vs_g01``); per corner case,
     NURBS + PSO's peak-curvature reduction against method 1 and its time against the G01 corner.  Tags
-    name the best learned model per shape (:func:`~toolpath.training.replicates.best_learned`).  The
+    name the best learned model per shape (:func:`~toolpath.models.training.replicates.best_learned`).  The
     per-seed, per-category and per-method detail stays on the stage runs."""
-    from toolpath.training.replicates import best_learned
+    from toolpath.models.training.replicates import best_learned
 
     metrics: dict[str, float] = {}
     tags: dict[str, str] = {}

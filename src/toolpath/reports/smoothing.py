@@ -19,11 +19,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from toolpath.geometry.curvature import local_curvature  # noqa: E402
+from toolpath.geometry.curvature import local_curvature, reduction_pct  # noqa: E402
 from toolpath.reports.paper import PAPER_REDUCTION  # noqa: E402
 from toolpath.reports.smoothing_tables import MODE_LABEL, label  # noqa: E402
 from toolpath.reports.tables import Table  # noqa: E402
-from toolpath.smoothing.evaluate import reduction_pct  # noqa: E402
 
 PAPER_METHODS = ("mean_filter", "bezier", "nacoa")
 Y_FLOOR = -50.0  # lowest reduction drawn in the trade-off figure (per cent)  # Figs. 9-11 and Sec. 5.2.4

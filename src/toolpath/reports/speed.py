@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from toolpath.reports.paper import TABLE4
+from toolpath.reports.paper import PAPER_MODELS
 from toolpath.reports.tables import Table
 
 VARIANTS = (("fp32_eager", "torch FP32"), ("int8_eager", "torch INT8 (reference graph)"),
@@ -27,9 +27,9 @@ PAPER_MCRL_SPEEDUP = 3.2 / 2.8
 LARGE_MODEL_PARAMETERS, LARGE_SPEEDUP, LARGE_WEIGHT_RATIO, LARGE_FILE_RATIO = 100_000, 1.5, 0.5, 0.7
 
 
-def _paper(model: str, variant: str, shape: str) -> float | None:
+def _paper(paper: Mapping, model: str, variant: str, shape: str) -> float | None:
     key = model if variant.startswith("fp32") else f"{model}_int8"
-    return TABLE4.get(key, {}).get(shape)
+    return paper.get(key, {}).get(shape)
 
 
 def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
@@ -39,7 +39,7 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
     headers = ["model", "variant", *(f"{s}: test split s (paper s)" for s in shapes),
                f"windows/s (batch {setup.get('batch', '?')})", "latency batch 1 (ms)", "file size (kB)"]
     table = Table("Table 4: inference time, ours (stated workload) beside the paper's seconds", headers)
-    order = [m for m in TABLE4 if "_" not in m]  # the paper's row order, then any other model
+    order, paper_s = list(PAPER_MODELS), inference.get("paper_table4_s", {})  # the paper's row order, then others
     models = inference.get("models", {})
     for model in sorted(models, key=lambda m: (order.index(m) if m in order else len(order), m)):
         entry = models[model]
@@ -50,7 +50,7 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
             for shape in shapes:
                 split = entry.get("test_split_s", {}).get(shape, {})
                 ours = split.get(variant)
-                paper = _paper(model, variant, shape)
+                paper = _paper(paper_s, model, variant, shape)
                 text = f"{ours:.4f}" if ours is not None else "-"
                 cells.append(f"{text} ({paper:g})" if paper is not None else f"{text} (-)")
             size = entry.get(FILE_KEYS[variant])

@@ -6,8 +6,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+from toolpath.models.training.metrics import DEGENERATE
 from toolpath.reports.paper import PAPER_REDUCTION, TABLE3
-from toolpath.training.metrics import DEGENERATE
 
 HEADLINE = "fig8_methods"
 
@@ -15,9 +15,9 @@ HEADLINE = "fig8_methods"
 def table3_summary(metrics: Mapping[str, Mapping[str, Mapping]]) -> str:
     """Per shape: MCRL's test accuracy / macro F1 (mean +- sd over the training seeds) on the paper's
     input (``mcrl_xy``, Table 3a) and on ours (``mcrl``, Table 3b) beside the paper's, the best learned
-    model (:func:`~toolpath.training.replicates.best_learned`: chosen by validation F1, its test figures
+    model (:func:`~toolpath.models.training.replicates.best_learned`: chosen by validation F1, its test figures
     shown), the rule."""
-    from toolpath.training.replicates import best_learned
+    from toolpath.models.training.replicates import best_learned
 
     lines = ["| shape | MCRL on the paper's input (coordinates), accuracy / F1, mean +- sd over seeds (paper) | "
              "MCRL on our turning terms | best learned model (chosen by validation F1), test accuracy / F1 | "
@@ -40,7 +40,7 @@ def table3_summary(metrics: Mapping[str, Mapping[str, Mapping]]) -> str:
 
 
 def _mcrl_cell(summary: Mapping | None, paper_cell: str) -> str:
-    from toolpath.training.replicates import describe
+    from toolpath.models.training.replicates import describe
 
     if summary is None:
         return "-"

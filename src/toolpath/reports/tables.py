@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from toolpath.models.training.metrics import DEGENERATE
 from toolpath.reports.paper import LOWER_IS_BETTER, TABLE2, TABLE3, TABLE3_COLUMNS
-from toolpath.training.metrics import DEGENERATE
 
 CATEGORY_NAMES = {1: "smooth", 2: "slightly rough", 3: "rugged", 4: "sharp turning corner"}
 
@@ -84,10 +84,10 @@ def table3(shape: str, summaries: Mapping[str, Mapping], block: str = "turning",
     """Table 3 for one shape: per model, our mean +- sd over the training seeds / the paper / the
     difference of the mean, for each column; the best of our means per column in bold (lowest loss,
     highest otherwise).  ``summaries``: per model the ``replicates`` entry of its train metrics
-    (:func:`toolpath.training.replicates.summarise`).  A model all of whose seeds predict one class is
+    (:func:`toolpath.models.training.replicates.summarise`).  A model all of whose seeds predict one class is
     shown as degenerate, never scored; one some of whose seeds do is scored on the others and says so.
     Models without a paper row (the exact rule) show a dash there."""
-    from toolpath.training.replicates import describe
+    from toolpath.models.training.replicates import describe
 
     headers = ["model", *(f"{c} ours / paper (diff)" for c in TABLE3_COLUMNS),
                "accuracy, 95 % interval (programs)", "seeds"]
@@ -210,7 +210,7 @@ def table2(profile: str, ours: Mapping[str, Mapping[str, Mapping]], runs: Mappin
 def paired_table(shape: str, paired: Mapping[str, Mapping[str, Mapping]]) -> Table:
     """Table 3c for one shape: MCRL (on each input) minus every other model, accuracy and macro F1 in
     points with their 95 % paired bootstrap interval over test programs and seeds, and the verdict
-    the interval allows (:func:`toolpath.training.metrics.paired_bootstrap`)."""
+    the interval allows (:func:`toolpath.models.training.metrics.paired_bootstrap`)."""
     headers = ["MCRL", "against", "accuracy difference (interval)", "macro F1 difference (interval)",
                "verdict (accuracy / F1)"]
     table = Table(f"Table 3c, {shape}: MCRL minus each model on the same test programs (points), 95 % interval "

@@ -1,7 +1,8 @@
-"""Parametric parts (involute gear, pentagram boss, maple leaf) and CAM-like rough G01 toolpaths, and the
-NURBS corner paper's case paths (:mod:`~toolpath.shapes.cases`).
+"""The parts: parametric outlines (involute gear, pentagram boss, maple leaf) and their CAM-like rough G01
+toolpaths (Li et al.), and Xie & Zhu's sheets of many parts with their sequencing
+(:mod:`~toolpath.shapes.sequencing`).
 
-The names below load on first use (PEP 562), so the case paths alone do not import the G-code writer.
+The names below load on first use (PEP 562), so an outline alone does not import the G-code writer.
 """
 
 from importlib import import_module

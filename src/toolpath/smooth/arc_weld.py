@@ -35,7 +35,7 @@ from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import pieced_hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.arc_search import Chain, fewest_blocks
 from toolpath.smooth.rewrite import decimals_of, line_decimals, switch_stable
 

@@ -158,7 +158,7 @@ def classifier(spec: str, runtime: str = "onnxruntime"):
     """A function from windows (N, 50, 2) in mm, relative to their first point, to Table 1 categories 1-4."""
     if spec == "rule":  # Eq. 3 and Table 1 directly: the rule's estimator needs scikit-learn and torch to import
         from toolpath.geometry.curvature import local_curvature
-        from toolpath.labels.categories import categorize
+        from toolpath.geometry.labels.categories import categorize
 
         return lambda X: categorize(local_curvature(np.asarray(X, np.float64))).astype(np.int64)
     if spec.startswith(REGISTRY_SCHEMES):
@@ -200,7 +200,7 @@ def _predictor(network):
     """Categories 1-4 from a torch network's four logits."""
     import torch
 
-    from toolpath.training.loop import predict_logits
+    from toolpath.models.training.loop import predict_logits
 
     def predict(X: np.ndarray) -> np.ndarray:
         logits = predict_logits(network, torch.as_tensor(np.asarray(X, np.float32)))
@@ -319,7 +319,7 @@ def _weld(result, program, tolerance: float, start) -> None:
     """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`)."""
     from dataclasses import replace
 
-    from toolpath.labels.windows import feed_runs
+    from toolpath.geometry.labels.windows import feed_runs
     from toolpath.smooth.arc_weld import weld_arcs
 
     smoothed = start.snapshot().read(result.text)

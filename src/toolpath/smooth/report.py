@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from toolpath.labels.categories import CATEGORY_NAMES
+from toolpath.geometry.labels.categories import CATEGORY_NAMES
 
 _TIME_NOTE = ("feed planner (seed 002) under the default machine limits, feed moves only; rapids are not timed; "
               "a run longer than a part (~8 MB of text) is planned in pieces, each from rest to rest")

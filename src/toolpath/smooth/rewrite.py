@@ -29,7 +29,7 @@ from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt_many
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import moved_hausdorff
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smoothing.methods import TOGETHER as METHODS_TOGETHER
 from toolpath.smoothing.methods import UNTOUCHED, dispatch, smooth_together
 

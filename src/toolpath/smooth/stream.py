@@ -28,7 +28,7 @@ import numpy as np
 from toolpath.gcode.program import Motion, Program
 from toolpath.gcode.reader import ReaderOptions
 from toolpath.gcode.reading import Reading, text_parts
-from toolpath.labels.windows import feed_runs
+from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.rewrite import Rewrite, RewriteOptions, controller_state_read, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory

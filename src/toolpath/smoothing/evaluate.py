@@ -7,7 +7,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from toolpath.geometry.curvature import arc_length, fitness, local_curvature, smoothness_penalty
+from toolpath.geometry.curvature import arc_length, fitness, local_curvature, reduction_pct, smoothness_penalty
 from toolpath.geometry.hausdorff import directed_hausdorff
 from toolpath.smoothing.result import SmoothingResult
 
@@ -22,11 +22,6 @@ ROW_FIELDS = ("window", "category", "baseline_window", "mode", "method", "encodi
               "local_curvature_after", "reduction_pct", "smoothness_before", "smoothness_after",
               "fitness_before", "fitness_after", "hausdorff_mm", "one_sided_mm", "arc_length_change_pct",
               "evaluations", "no_move", "seconds")
-
-
-def reduction_pct(before: float, after: float) -> float:
-    """Curvature reduction in per cent (0 for a window that had no curvature to remove)."""
-    return 100.0 * (1.0 - after / before) if before > 0 else 0.0
 
 
 def window_row(original: np.ndarray, result: SmoothingResult, **keys) -> dict:

@@ -7,7 +7,7 @@ from collections import Counter
 
 import numpy as np
 
-from toolpath.labels.split import Split
+from toolpath.geometry.labels.split import Split
 from toolpath.smoothing.evaluate import convergence, summarise, window_row
 from toolpath.smoothing.mealpy_runs import MEALPY_CLASSES
 from toolpath.smoothing.methods import BASELINE_ONLY, METHODS, dispatch, problem_from, smooth

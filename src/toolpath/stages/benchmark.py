@@ -25,12 +25,12 @@ from pathlib import Path
 import torch
 
 from toolpath.inference import table4
+from toolpath.inference.paper import TABLE4
 from toolpath.inference.timing import bench_model, bench_rule, branch_profile, machine, onnx_runners, shipped, threads
 from toolpath.models.registry import parameter_count
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.artifacts import Split
 from toolpath.pipeline.workers import progress
-from toolpath.reports.paper import TABLE4
 
 
 def main(argv: list[str] | None = None) -> None:

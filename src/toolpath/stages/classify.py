@@ -8,8 +8,8 @@ is derived from ``seed`` and the name "report" (the names are part of the result
 
 from __future__ import annotations
 
+from toolpath.models.training import examples
 from toolpath.pipeline import artifacts, config, settings, tracking
-from toolpath.training import examples
 
 
 def main(argv: list[str] | None = None) -> None:

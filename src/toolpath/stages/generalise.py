@@ -15,13 +15,13 @@ import numpy as np
 import torch
 
 from toolpath.gcode import GCodeError, ReaderOptions, read_file
-from toolpath.labels import label_program
-from toolpath.labels.windows import arc_share
+from toolpath.geometry.labels import label_program
+from toolpath.geometry.labels.windows import arc_share
+from toolpath.models.training.classifier import TorchClassifier, to_checkpoint
+from toolpath.models.training.generalise import best_by_validation, corpus_report, cross_shape_matrix
+from toolpath.models.training.metrics import classification_metrics
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.artifacts import Split
-from toolpath.training.classifier import TorchClassifier, to_checkpoint
-from toolpath.training.generalise import best_by_validation, corpus_report, cross_shape_matrix
-from toolpath.training.metrics import classification_metrics
 
 GCODE_SUFFIXES = {".nc", ".ngc", ".gcode", ".tap", ".cnc", ".txt"}
 

@@ -1,39 +1,50 @@
-"""Sequence every sheet by Xie & Zhu's S-shaped algorithm and the baselines.  Run: python -m toolpath.stages.sequence
+"""Lay out Xie & Zhu's sheets of many parts and sequence each by their S-shaped algorithm and the baselines.
+Run: python -m toolpath.stages.sequence
 
-Reads every sheet; writes per sheet the S-shaped plan with collision avoidance as one continuous-cut
-program and every method's visits and collisions (for the report's figure), the metrics (empty travel,
-collisions, optimisation rate against the manual order: deterministic) and the timing (each method's
-planning time, Table 1's Time column), at the paths of :class:`toolpath.pipeline.artifacts.Layout`.
+Writes ``<paths.sheets>/sheet_<n>.json`` per part count of ``sheets.counts`` (the sheet size and every part's
+kind and contour, mm; the plans are made on the sheet as read back from that file); per sheet the S-shaped plan
+with collision avoidance as one continuous-cut program and every method's visits and collisions (for the
+report's figure); the metrics (empty travel, collisions, optimisation rate against the manual order:
+deterministic) and the timing (each method's planning time, Table 1's Time column), at the paths of
+:class:`toolpath.pipeline.artifacts.Layout`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from omegaconf import OmegaConf
 
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.artifacts import write_json
-from toolpath.pipeline.workers import clean_dir, pool_map
-from toolpath.sequencing import Sheet, part_tree, run_sheet, s_shaped, score, sheet_program
-from toolpath.sequencing.planner import SheetPlan
-from toolpath.sequencing.score import collisions
+from toolpath.pipeline.workers import clean_dir, pool_map, progress
+from toolpath.shapes.sequencing import Sheet, make_sheet, part_tree, run_sheet, s_shaped, score, sheet_program
+from toolpath.shapes.sequencing.experiment import outcome_records, plan_record
 
 
 def load_sheet(path: Path) -> Sheet:
     try:
-        return Sheet.from_dict(artifacts.read_json(path, "sheets"))
+        return Sheet.from_dict(artifacts.read_json(path, "sequence"))
     except (ValueError, KeyError, TypeError) as exc:
-        raise artifacts.ArtifactError(path, f"not a readable sheet ({exc})", "sheets") from None
+        raise artifacts.ArtifactError(path, f"not a readable sheet ({exc})", "sequence") from None
 
 
-def plan_record(plan: SheetPlan, sheet: Sheet) -> dict:
-    """Visits and collisions of a plan, as JSON (mm, 4 decimals)."""
-    def xy(p):
-        return None if p is None else [round(float(p[0]), 4), round(float(p[1]), 4)]
-    return {"visits": [{"part": v.part, "full": v.full, "entry": xy(v.entry_xy), "exit": xy(v.exit_xy)}
-                       for v in plan.visits],
-            "collisions": [list(c) for c in collisions(plan, sheet.parts, part_tree(sheet.parts))]}
+def lay_out(sc: dict, seed: int, layout: artifacts.Layout) -> None:
+    """Every sheet of ``sc["counts"]`` (conf/sheets), written as JSON; its sizes logged."""
+    import mlflow
+
+    clean_dir(layout.sheets)
+    for n in progress(list(sc["counts"]), "sheets"):
+        try:
+            sheet = make_sheet(int(n), sc["width"], sc["height"], sc["kinds"], sc["size"], sc["gap"], sc["margin"],
+                               sc["simplify"], np.random.default_rng(config.seed_for(seed, "sheets", str(n))),
+                               sc["attempts"])
+        except ValueError as exc:
+            raise SystemExit(f"params.yaml (conf/sheets): the sheet of {n} parts: {exc}") from None
+        write_json(sheet.to_dict(), layout.sheet(int(n)))
+        mlflow.log_metrics({f"sheets.{n}.vertices": sum(len(p.ring) for p in sheet.parts),
+                            f"sheets.{n}.contour_mm": sum(p.perimeter for p in sheet.parts)})
 
 
 def _run_sheet(job: tuple) -> dict:
@@ -43,34 +54,26 @@ def _run_sheet(job: tuple) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
-    seq = OmegaConf.to_container(cfg.sequence, resolve=True)
-    counts = [int(n) for n in cfg.sheets.counts]
-    layout = settings.layout(cfg)
-    sheets = {n: load_sheet(layout.sheet(n)) for n in counts}
-    out = clean_dir(layout.sequence)
-    spec = settings.program_spec(cfg)
+    seq, sc = OmegaConf.to_container(cfg.sequence, resolve=True), OmegaConf.to_container(cfg.sheets, resolve=True)
+    counts, layout, spec = [int(n) for n in sc["counts"]], settings.layout(cfg), settings.program_spec(cfg)
     metrics: dict = {"sheets": {}, "expansion": {}}
     seconds: dict = {}
-    with tracking.stage_run("sequence", {"seed": cfg.seed, **config.flat(seq, "sequence")}):
+    params = {"seed": cfg.seed, **config.flat(sc, "sheets"), **config.flat(seq, "sequence")}
+    with tracking.stage_run("sequence", params):
         import mlflow
 
+        lay_out(sc, cfg.seed, layout)
+        sheets = {n: load_sheet(layout.sheet(n)) for n in counts}
+        out = clean_dir(layout.sequence)
         # sheets are independent: one per worker (each method's seconds are then timed beside another sheet's work)
         planned = pool_map(_run_sheet, [(sheets[n], seq) for n in counts], seq["workers"], "sequence sheets")
         for n, outcomes in zip(counts, planned, strict=True):
-            sheet = sheets[n]
-            manual = outcomes["manual"].scores["empty_travel_mm"] if "manual" in outcomes else None
-            metrics["sheets"][str(n)] = {
-                m: {**o.scores, **{k: v for k, v in o.facts.items() if k not in ("seconds", "time_capped")},
-                    "optimisation_rate_pct": None if manual is None
-                    else 100.0 * (1 - o.scores["empty_travel_mm"] / manual)}
-                for m, o in outcomes.items()}
-            seconds[str(n)] = {m: {"seconds": o.seconds, "time_capped": bool(o.facts.get("time_capped", False))}
-                               for m, o in outcomes.items()}
-            write_json({m: plan_record(o.plan, sheet) for m, o in outcomes.items()}, layout.sheet_plans(n))
+            metrics["sheets"][str(n)], seconds[str(n)] = outcome_records(outcomes)
+            write_json({m: plan_record(o.plan, sheets[n]) for m, o in outcomes.items()}, layout.sheet_plans(n))
             if "s_shaped" in outcomes:
                 title = f"Xie & Zhu S-shaped sequencing, {n} parts, seed {cfg.seed}, continuous cut"
                 layout.sheet_program(n).write_text(
-                    sheet_program(outcomes["s_shaped"].plan, sheet.parts, spec, seq["depth"], title), encoding="utf-8")
+                    sheet_program(outcomes["s_shaped"].plan, sheets[n].parts, spec, seq["depth"], title), "utf-8")
         study = seq["expansion_study"]
         if study["sheet"] not in sheets:
             raise SystemExit(f"params.yaml: sequence.expansion_study.sheet {study['sheet']} is not in sheets.counts")

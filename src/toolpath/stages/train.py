@@ -14,10 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from toolpath.models.registry import parameter_count
+from toolpath.models.training import replicates
+from toolpath.models.training.classifier import from_checkpoint
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.workers import progress, shape_arg
-from toolpath.training import replicates
-from toolpath.training.classifier import from_checkpoint
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None) -> None:
             raise SystemExit(f"{layout.windows_file(args.shape)}: the {split.label} split holds windows of "
                              f"{'category ' + str(present[0]) if len(present) else 'no category'} only; check "
                              f"label.bounds {list(cfg.label.bounds)} and label.window, then "
-                             f"`dvc repro label@{args.shape}`")
+                             f"`dvc repro generate@{args.shape}`")
     programs = {s.label: data.program[data.split == s] for s in artifacts.Split}
     jobs = [replicates.Job(model, r, *settings.training(cfg, args.shape, model, r), common.class_weight)
             for model in cfg.train.models for r in range(cfg.train.replicates if _learned(cfg, model) else 1)]

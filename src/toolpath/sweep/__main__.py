@@ -1,6 +1,6 @@
 """Budgeted Bayesian search (Optuna TPE, seeded) over a model's hyperparameters.
 
-Run from the repository root, after `dvc repro label@<shape>`:
+Run from the repository root, after `dvc repro generate@<shape>`:
 
     python -m toolpath.sweep                                   # conf/sweep/mcrl.yaml as it stands
     python -m toolpath.sweep sweep.n_trials=40 sweep.workers=2 train.gear.epochs=20
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         spec = spec_from(base, root, base_overrides)
         windows = Path(str(base.paths.windows)) / f"{spec.shape}.npz"
         if not (root / windows).is_file():
-            raise FileNotFoundError(f"{windows} not found: run `dvc repro label@{spec.shape}` first")
+            raise FileNotFoundError(f"{windows} not found: run `dvc repro generate@{spec.shape}` first")
         study = open_study(spec)
         complete = len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)))
         todo = args.trials if args.trials is not None else max(0, spec.n_trials - complete)

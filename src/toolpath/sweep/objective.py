@@ -24,11 +24,11 @@ def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
                     splits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
                     replicate: int = 0) -> dict[str, Any]:
     """Validation metrics (``classification_metrics``), epochs run and seconds of one training,
-    exactly as the train stage trains its ``replicate`` (:func:`toolpath.training.classifier.fit_and_score`)."""
+    exactly as the train stage trains its ``replicate`` (:func:`toolpath.models.training.classifier.fit_and_score`)."""
     import torch
 
+    from toolpath.models.training.classifier import fit_and_score
     from toolpath.pipeline.settings import layout, training
-    from toolpath.training.classifier import fit_and_score
 
     torch.set_num_threads(threads)
     torch.use_deterministic_algorithms(True)

@@ -9,7 +9,7 @@ ties go to the lower rate).  Writes ``reports/tuning/protocol.json`` (every tria
 trials).  ``train.protocol.lr`` in ``conf/train/default.yaml`` must hold the chosen rates (a test
 compares them).
 
-Run from the repository root, after `dvc repro label@<shape>`:
+Run from the repository root, after `dvc repro generate@<shape>`:
 
     python -m toolpath.sweep.protocol                 # the default profile's grid
     python -m toolpath.sweep.protocol +experiment=smoke
@@ -40,8 +40,8 @@ def structures(cfg, model: str) -> list[dict[str, Any]]:
 def jobs(cfg) -> list:
     """One training job per model, rate and structural option, each with the protocol's settings and
     replicate 0's seed."""
+    from toolpath.models.training.replicates import Job
     from toolpath.pipeline.settings import training
-    from toolpath.training.replicates import Job
 
     protocol, shape = cfg.train.protocol, cfg.train.protocol.tune.shape
     out = []
@@ -118,9 +118,9 @@ def curve(trials: Sequence[Mapping[str, Any]], path: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from toolpath.models.training.replicates import run_all
     from toolpath.pipeline.config import compose_config
     from toolpath.pipeline.workers import progress
-    from toolpath.training.replicates import run_all
 
     cfg = compose_config(Path.cwd(), sys.argv[1:] if argv is None else argv)
     parts, programs = validation_parts(cfg)

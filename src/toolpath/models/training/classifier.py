@@ -18,7 +18,7 @@ from sklearn.utils.class_weight import compute_class_weight
 
 from toolpath.models.registry import build, target_class
 from toolpath.models.rule import CLASSES, as_windows
-from toolpath.training.loop import TrainSettings, fit_network, predict_logits
+from toolpath.models.training.loop import TrainSettings, fit_network, predict_logits
 
 
 class TorchClassifier(ClassifierMixin, BaseEstimator):
@@ -27,7 +27,7 @@ class TorchClassifier(ClassifierMixin, BaseEstimator):
     Parameters
     ----------
     network : mapping with ``_target_`` (a class of :mod:`toolpath.models`) and constructor args.
-    settings : mapping of :class:`~toolpath.training.TrainSettings` fields.
+    settings : mapping of :class:`~toolpath.models.training.TrainSettings` fields.
     class_weight : ``None`` or ``"balanced"`` (inverse class frequency in the training labels).
     """
 
@@ -107,7 +107,7 @@ def fit_and_score(network: Mapping[str, Any], settings: Mapping[str, Any], class
     bootstrap interval over its programs."""
     import time
 
-    from toolpath.training.metrics import classification_metrics, program_bootstrap
+    from toolpath.models.training.metrics import classification_metrics, program_bootstrap
 
     started = time.perf_counter()
     if issubclass(target_class(network), torch.nn.Module):

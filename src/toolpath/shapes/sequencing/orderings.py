@@ -24,9 +24,9 @@ import numpy as np
 import shapely
 from shapely import STRtree
 
-from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import SheetPlan, Visit
-from toolpath.sequencing.transitions import best_transition
+from toolpath.shapes.sequencing.parts import Part
+from toolpath.shapes.sequencing.planner import SheetPlan, Visit
+from toolpath.shapes.sequencing.transitions import best_transition
 
 
 def manual_order(parts: Sequence[Part]) -> tuple[list[int], list[int]]:

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from toolpath.training.metrics import classification_metrics
+from toolpath.models.training.metrics import classification_metrics
 
 
 def best_by_validation(val_accuracy: Mapping[str, float]) -> str:

@@ -15,9 +15,9 @@ from collections.abc import Sequence
 import numpy as np
 from shapely import STRtree
 
-from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import SheetPlan
-from toolpath.sequencing.transitions import line_colliders, shortened_lines
+from toolpath.shapes.sequencing.parts import Part
+from toolpath.shapes.sequencing.planner import SheetPlan
+from toolpath.shapes.sequencing.transitions import line_colliders, shortened_lines
 
 
 def transitions(plan: SheetPlan) -> tuple[np.ndarray, np.ndarray]:

@@ -17,8 +17,8 @@ import shapely
 from shapely import affinity
 from shapely.geometry import Point, Polygon
 
-from toolpath.sequencing.parts import Part
 from toolpath.shapes.outlines import gear, maple_leaf, pentagram
+from toolpath.shapes.sequencing.parts import Part
 
 KINDS = ("gear", "pentagram", "maple_leaf", "rectangle", "circle", "ellipse", "hexagon")
 

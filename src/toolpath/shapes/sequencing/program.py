@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from toolpath.gcode.writer import ProgramSpec, fmt, g1_moves
-from toolpath.sequencing.parts import Part
-from toolpath.sequencing.planner import SheetPlan, Visit
+from toolpath.shapes.sequencing.parts import Part
+from toolpath.shapes.sequencing.planner import SheetPlan, Visit
 
 
 def visit_path(part: Part, visit: Visit) -> np.ndarray:

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from shapely import STRtree
 
-from toolpath.sequencing.parts import Part
-from toolpath.sequencing.transitions import best_transition
+from toolpath.shapes.sequencing.parts import Part
+from toolpath.shapes.sequencing.transitions import best_transition
 
 
 @dataclass

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from toolpath.training.metrics import DEGENERATE, degenerate, program_bootstrap
+from toolpath.models.training.metrics import DEGENERATE, degenerate, program_bootstrap
 
 SCALARS = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
@@ -64,7 +64,7 @@ def _init(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], programs: Mapping[
 
 
 def _run(job: Job) -> Outcome:
-    from toolpath.training.classifier import fit_and_score, to_checkpoint
+    from toolpath.models.training.classifier import fit_and_score, to_checkpoint
 
     parts, started = _DATA["parts"], time.time()
     clf, metrics, history, seconds = fit_and_score(job.network, job.settings, job.class_weight, parts,
@@ -141,9 +141,9 @@ def job_order(jobs: Sequence[Job], cost: Callable[[Job], float]) -> list[Job]:
 def paired(outcomes: Mapping[str, Sequence[Outcome]], anchors: Sequence[str], inputs: Mapping[str, str],
            y: np.ndarray, programs: np.ndarray, seed: Callable[[str, str], int]) -> dict:
     """Each anchor (MCRL on each input) against every other learned model on the same input and the other
-    anchors: :func:`~toolpath.training.metrics.paired_bootstrap` over the test programs and the seeds
+    anchors: :func:`~toolpath.models.training.metrics.paired_bootstrap` over the test programs and the seeds
     that learned (a model none of whose seeds learned is named, not compared)."""
-    from toolpath.training.metrics import paired_bootstrap
+    from toolpath.models.training.metrics import paired_bootstrap
 
     learned = {m: np.stack([o.test_predicted for o in sorted(runs, key=lambda o: o.job.replicate)
                             if not degenerate(o.metrics["test"])]) for m, runs in outcomes.items()
@@ -162,7 +162,7 @@ def logistic_reference(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], input
     on the training windows, in :func:`summarise`'s layout (one deterministic run, no sd), so Table 3 shows
     it as a row; its test accuracy gets the program bootstrap interval."""
     from toolpath.models.linear import features, fit_logistic, probabilities
-    from toolpath.training.metrics import CLASSES, classification_metrics
+    from toolpath.models.training.metrics import CLASSES, classification_metrics
 
     out = {}
     for name in inputs:

@@ -21,7 +21,7 @@ import numpy as np
 
 from toolpath.gcode.reader import Motion, Program
 from toolpath.geometry.curvature import drop_repeated, local_curvature
-from toolpath.labels.categories import TABLE1_BOUNDS, categorize
+from toolpath.geometry.labels.categories import TABLE1_BOUNDS, categorize
 
 
 #: Table 1 bounds: <= 1.9 smooth (1), < 3.5 slightly rough (2), < 7.6 rugged (3), else sharp corner (4).

@@ -6,11 +6,11 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from toolpath.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
-from toolpath.sequencing.planner import SheetPlan, part_tree, plan_path
-from toolpath.sequencing.regions import Region, s_shaped_regions
-from toolpath.sequencing.score import score
-from toolpath.sequencing.sheets import Sheet
+from toolpath.shapes.sequencing.orderings import gtsp_plan, manual_order, nearest_neighbour_order
+from toolpath.shapes.sequencing.planner import SheetPlan, part_tree, plan_path
+from toolpath.shapes.sequencing.regions import Region, s_shaped_regions
+from toolpath.shapes.sequencing.score import collisions, score
+from toolpath.shapes.sequencing.sheets import Sheet
 
 # Table 1's "optimised sorting: yes" is the S-shaped order with collision handling; "no" without.
 METHODS = ("s_shaped", "s_shaped_no_avoidance", "manual", "nearest_neighbour", "gtsp", "gtsp_eq46")
@@ -66,3 +66,25 @@ def run_sheet(sheet: Sheet, algorithm: dict, gtsp: dict, feed: float, methods=ME
         if on_method:
             on_method(method)
     return out
+
+
+def plan_record(plan: SheetPlan, sheet: Sheet) -> dict:
+    """Visits and collisions of a plan, as JSON (mm, 4 decimals): what the report's figure draws."""
+    def xy(p):
+        return None if p is None else [round(float(p[0]), 4), round(float(p[1]), 4)]
+    return {"visits": [{"part": v.part, "full": v.full, "entry": xy(v.entry_xy), "exit": xy(v.exit_xy)}
+                       for v in plan.visits],
+            "collisions": [list(c) for c in collisions(plan, sheet.parts, part_tree(sheet.parts))]}
+
+
+def outcome_records(outcomes: dict[str, Outcome]) -> tuple[dict, dict]:
+    """Each method's scores and facts with its optimisation rate against the manual order (deterministic), and
+    apart from them its planning seconds (Table 1's Time column: varies between runs)."""
+    manual = outcomes["manual"].scores["empty_travel_mm"] if "manual" in outcomes else None
+    scores = {m: {**o.scores, **{k: v for k, v in o.facts.items() if k not in ("seconds", "time_capped")},
+                  "optimisation_rate_pct": None if manual is None
+                  else 100.0 * (1 - o.scores["empty_travel_mm"] / manual)}
+              for m, o in outcomes.items()}
+    seconds = {m: {"seconds": o.seconds, "time_capped": bool(o.facts.get("time_capped", False))}
+               for m, o in outcomes.items()}
+    return scores, seconds

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from toolpath.sequencing.parts import Part
+from toolpath.shapes.sequencing.parts import Part
 
 
 @dataclass(frozen=True)

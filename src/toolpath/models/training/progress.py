@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from toolpath.training.loop import EpochRecord
+from toolpath.models.training.loop import EpochRecord
 
 
 class EpochBar:

@@ -1,6 +1,6 @@
 """Table 1: the four roughness categories of a window and the LocalCurvature bounds between them.
 
-Apart from the windowing (:mod:`toolpath.labels.windows`, which reads G-code), so a classifier that only
+Apart from the windowing (:mod:`toolpath.geometry.labels.windows`, which reads G-code), so a classifier that only
 applies the bounds (the exact rule) does not depend on the G-code reader.
 """
 

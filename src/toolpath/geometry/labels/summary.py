@@ -1,12 +1,12 @@
-"""What the label stage reports about one shape's windows (DVC and MLflow use these keys: keep them)."""
+"""What the generate stage reports about one shape's windows (DVC and MLflow use these keys: keep them)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from toolpath.labels.categories import CATEGORY_NAMES
-from toolpath.labels.split import Split
-from toolpath.labels.windows import Windows
+from toolpath.geometry.labels.categories import CATEGORY_NAMES
+from toolpath.geometry.labels.split import Split
+from toolpath.geometry.labels.windows import Windows
 
 QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 

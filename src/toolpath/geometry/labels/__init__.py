@@ -1,7 +1,7 @@
 """Algorithm 1: 50-point windows of cutting motion labelled by LocalCurvature (Table 1), and the split
 of windows by program.
 
-The names below load on first use (PEP 562), so the split alone (:mod:`toolpath.labels.split`, which the
+The names below load on first use (PEP 562), so the split alone (:mod:`toolpath.geometry.labels.split`, which the
 windows file's schema uses) does not import the G-code reader.
 """
 
@@ -16,5 +16,5 @@ __all__ = sorted(_HOMES)
 
 def __getattr__(name: str):
     if name not in _HOMES:
-        raise AttributeError(f"module 'toolpath.labels' has no attribute {name!r}")
-    return getattr(import_module(f"toolpath.labels.{_HOMES[name]}"), name)
+        raise AttributeError(f"module 'toolpath.geometry.labels' has no attribute {name!r}")
+    return getattr(import_module(f"toolpath.geometry.labels.{_HOMES[name]}"), name)

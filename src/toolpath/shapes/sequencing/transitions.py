@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 from shapely import STRtree
 
-from toolpath.sequencing.parts import Part
+from toolpath.shapes.sequencing.parts import Part
 
 # Transition lines are shortened by this much (mm) at each end before the intersection tests, so
 # touching C_i at the exit and C_{i+1} at the entry is not a collision.
