@@ -82,3 +82,15 @@ def test_the_readme_layout_lists_every_package():
     layout = (REPO / "README.md").read_text(encoding="utf-8").split("## Layout", 1)[1]
     packages = sorted(p.parent.name for p in (REPO / "src" / "toolpath").glob("*/__init__.py"))
     assert [p for p in packages if f"{p}/" not in layout] == []
+
+
+def test_the_test_program_counts_in_methods_md_are_the_label_metrics():
+    """docs/methods.md gives each shape's test programs by hand: they must be the committed label metrics'."""
+    import json
+
+    found = re.search(r"test programs \((\d+) / (\d+) / (\d+)\s+on gear / pentagram / maple leaf\)",
+                      (REPO / "docs/methods.md").read_text(encoding="utf-8"))
+    assert found, "docs/methods.md no longer states the test programs per shape"
+    counts = [json.loads((REPO / f"reports/metrics/label/{s}.json").read_text())["split_programs"]["test"]
+              for s in ("gear", "pentagram", "maple_leaf")]
+    assert [int(g) for g in found.groups()] == counts
