@@ -33,6 +33,8 @@ def test_the_time_block_names_every_family_and_the_total():
     stopped = {**timing, "exit_code": 255, "stages": {"train@gear": 900.0, "report": 5.0}}
     assert readme.time_block(stopped).startswith("The last measured `dvc repro` of the default profile stopped with "
                                                  "exit code 255 in stage `report` after 25.0 minutes")
+    measured = {**timing, "dvc_seconds": 41.6}  # stage_times counts DVC's work between stages apart
+    assert "qat 600 s, DVC's own work between stages 42 s)" in readme.time_block(measured)
 
 
 def test_a_changed_source_makes_the_block_differ(tmp_path):

@@ -50,7 +50,9 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
 @pytest.mark.xdist_group("pipeline")
 def test_dvc_repro_on_smoke_profile(tmp_path):
     work, env, dvc = smoke_copy(tmp_path)
-    run(dvc + ["repro"], work, env)
+    timing = tmp_path / "pipeline_time.json"  # `make repro`'s stage timer around the same `dvc repro`
+    run([sys.executable, "-m", "toolpath.pipeline.stage_times", "--out", str(timing), "--", *dvc, "repro"],
+        work, env)
     for shape in ("gear", "pentagram", "maple_leaf"):
         assert (work / f"data/windows/{shape}.npz").is_file()
         metrics = json.loads((work / f"reports/metrics/label/{shape}.json").read_text())
@@ -133,7 +135,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
-    assert_mlflow_store_reads_as_the_pipeline(work, env)
+    assert_mlflow_store_reads_as_the_pipeline(work, env, json.loads(timing.read_text()))
     assert "up to date" in run(dvc + ["repro"], work, env)
     classified = json.loads((work / "reports/metrics/classify.json").read_text())  # Table 5, the classify stage's
     assert set(classified["predictions"]) == {"mcrl", "mlp", "rule", "mlp_xy"}
@@ -148,10 +150,11 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "up to date" in run(dvc + ["status"], work, env)
 
 
-def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict) -> None:
+def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dict) -> None:
     """The store of one `dvc repro` as `mlflow ui` shows it: a model-training experiment, one parent
-    spanning its stages with the configuration and the report, runs that last their work, every trained
-    network a logged model, each shape's best registered under an alias and loadable by `toolpath smooth`."""
+    spanning its stages with the configuration and the report, runs that last their work (within 10 % of
+    the stage timer's ``timing``), every trained network a logged model, each shape's best registered
+    under an alias and loadable by `toolpath smooth`."""
     import torch
 
     mlflow.set_tracking_uri(env["MLFLOW_TRACKING_URI"])
@@ -170,6 +173,13 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict) -> None:
     for r in stages:  # each stage's run lasts its work, and the parent spans them all
         assert r.info.status == "FINISHED" and r.info.end_time > r.info.start_time >= parent.info.start_time
         assert r.info.end_time <= parent.info.end_time
+    spans = {r.info.run_name: (r.info.end_time - r.info.start_time) / 1000 for r in stages}
+    assert set(spans) == set(timing["stages"])
+    off = {name: (round(span, 2), timing["stages"][name]) for name, span in spans.items()
+           if abs(span - timing["stages"][name]) > 0.1 * timing["stages"][name]}
+    assert not off, f"stage runs more than 10 % off the stage timer (run s, timer s): {off}"
+    assert abs((parent.info.end_time - parent.info.start_time) / 1000 - timing["total_seconds"]) \
+        <= 0.1 * timing["total_seconds"]
     models = [r for r in runs if "model" in r.data.tags and r.data.tags.get("stage", "").startswith("train")]
     assert {(r.data.tags["shape"], r.data.tags["model"]) for r in models} >= {("gear", "mcrl"), ("gear", "mlp")}
     logged = mlflow.search_logged_models(experiment_ids=[experiment.experiment_id], output_format="list")

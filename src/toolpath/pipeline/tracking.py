@@ -6,9 +6,9 @@ is set; artefacts go to ``$DVC_ROOT/mlruns``.  The parent run is named after the
 ``dvc exp run``: its pid and start time), so every stage of one invocation lands under it.
 
 Runs span their work: the parent starts when that ``dvc`` process started and ends when its last
-stage ends (each stage closes it again); a stage's run starts when its process started; a model's
-run spans its training (:func:`log_model_run`).  The parent carries the composed configuration
-(``params.yaml``, flattened, and the file) and a description saying how to reproduce it.
+stage ends; a stage's run starts when its process started; a model's spans its training.  The parent
+carries the composed configuration (``params.yaml``, flattened, and the file) and a description saying
+how to reproduce it.
 
 Concurrent writers (``dvc queue start -j N``, sweep workers) share the one SQLite file: each connection
 waits up to :data:`SQLITE_BUSY_SECONDS` for the write lock, a file lock serialises opening (and migrating)
@@ -28,6 +28,8 @@ import warnings
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, TypeVar
+
+from toolpath.pipeline.stage_times import end_line, started_at
 
 EXPERIMENT = "cnc-curvature"
 EXPERIMENT_TAGS = {  # MLflow 3's UI opens a "custom model development" experiment on its runs table
@@ -156,19 +158,20 @@ def dvc_invocation() -> tuple[str, int]:
     """(pid-start, start in ms) of the ``dvc`` process this stage runs under (else of this process)."""
     import psutil
 
-    me = psutil.Process()
+    found = me = psutil.Process()
     for process in me.parents():
         with contextlib.suppress(psutil.Error):
             if any(Path(word).name == "dvc" for word in process.cmdline()[:3]):  # dvc, python .../dvc, python -m dvc
-                return f"{process.pid}-{int(process.create_time())}", int(process.create_time() * 1000)
-    return f"{me.pid}-{int(me.create_time())}", int(me.create_time() * 1000)
+                found = process
+                break
+    return f"{found.pid}-{int(found.create_time())}", int(1000 * (started_at(found.pid) or found.create_time()))
 
 
 def process_start_ms() -> int:
     """When this process started (ms since the epoch): a stage's run starts there, not at its first log."""
     import psutil
 
-    return int(psutil.Process().create_time() * 1000)
+    return int(1000 * (started_at(os.getpid()) or psutil.Process().create_time()))
 
 
 START_DRIFT_MS = 120_000  # a process's start as psutil reads it drifted 8 s over one 35-minute `dvc repro` here
@@ -231,9 +234,7 @@ def _close_parent(client: Any, parent: str, failed: bool) -> None:
 def log_to_parent(metrics: Mapping[str, float], tags: Mapping[str, str]) -> str:
     """Put the pipeline's headline figures and tags on its parent run (so `mlflow ui` answers "how did
     this run do" on the parent's page); returns the parent's id."""
-    store = client()
-    experiment = experiment_id(store)
-    parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
+    store, parent = client(), parent_run_id()
     for key, value in metrics.items():
         with_retry(lambda k=key, v=value: store.log_metric(parent, k, float(v)))
     for key, value in tags.items():
@@ -247,10 +248,9 @@ SYSTEM_METRICS_SECONDS = 5.0  # a stage's CPU / memory sampled this often (MLflo
 @contextlib.contextmanager
 def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) -> Iterator[Any]:
     """Open the child run of ``stage`` (e.g. ``generate@gear``) under the pipeline's parent run, started
-    when this process started; on exit the parent's end moves to now.
-
-    The run (and the parent) is marked FAILED if the body raises.  Params are logged once, as given.
-    """
+    when this process started; on exit the parent's end moves to now and the process prints the line
+    :mod:`~toolpath.pipeline.stage_times` ends the stage at (the two spans agree).  The run (and the
+    parent) is marked FAILED if the body raises.  Params are logged once, as given."""
     import mlflow
 
     mlflow.set_tracking_uri(tracking_uri())
@@ -273,6 +273,7 @@ def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) 
         failed = False
     finally:
         _close_parent(store, parent, failed)
+        print(end_line(name, failed, time.time() - process_start_ms() / 1000, created.info.run_id), flush=True)
 
 
 def parent_run_id() -> str:
@@ -391,8 +392,7 @@ def record_up_to_date(stages: set[str]) -> dict[str, str]:
 
 def log_to_parent_artifacts(paths: Mapping[str, Path]) -> None:
     """Files (``{artefact folder: path}``, '' for the root) and folders on the parent run."""
-    store = client()
-    parent = with_retry(lambda: _parent_run_id(store, experiment_id(store), pipeline_key()))
+    store, parent = client(), parent_run_id()
     for folder, path in paths.items():
         if path.is_dir():
             store.log_artifacts(parent, str(path), folder or None)

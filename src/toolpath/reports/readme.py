@@ -42,8 +42,9 @@ def time_block(timing: Mapping) -> str:
                 f"in stage `{last}` after {total / 60:.1f} minutes ({total:.0f} s; by stage family: "
                 f"{', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}); see "
                 "`reports/pipeline_time.json`.")
+    dvc = (f", DVC's own work between stages {timing['dvc_seconds']:.0f} s" if "dvc_seconds" in timing else "")
     return (f"The last measured `dvc repro` of the default profile took {total / 60:.1f} minutes ({total:.0f} s; "
-            f"by stage family: {', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}); "
+            f"by stage family: {', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}{dvc}); "
             "`make repro` adds the install (about 2 minutes on a fresh clone) and writes these seconds per stage to "
             "`reports/pipeline_time.json`.")
 
