@@ -192,3 +192,22 @@ def test_spline_evaluation_agrees_with_scipys_bspline():
         expected = BSpline(knots, coefficients, k, extrapolate=False)(t)
         np.testing.assert_allclose(evaluate_spline(knots, coefficients, k, t), expected, rtol=0, atol=1e-12 * 60)
         checked += 1
+
+
+def test_g62_repeated_on_the_block_lines_reads_as_the_block_without_it():
+    """LinuxCNC's G6.2 examples repeat G6.2 on control-point and closing-knot lines (``G6.2 K1``): modal,
+    the same curve; a G6.2 line with P after a complete block starts the next block."""
+    lines = BEZIER.splitlines()
+    repeated = "\n".join(f"G6.2 {line}" if line.startswith("K") else line for line in lines) + "\n"
+    plain, again = read_text(BEZIER), read_text(repeated)
+    assert np.array_equal(plain.points, again.points) and np.array_equal(plain.kinds, again.kinds)
+    two = BEZIER.replace("G1 X10 Y5\n", "G6.2 P2 K0 X5 Y5\nK0 X8 Y5\nK1\nK1\n")
+    both = read_text(two)
+    assert np.allclose(both.points[-1], [8.0, 5.0, 0.0]) and both.states[12].position == (8.0, 5.0, 0.0)
+
+
+@pytest.mark.parametrize("line", ["G6.2 G1 K1", "G5.2 K1"])
+def test_a_block_line_with_another_g_code_names_it(line):
+    text = BEZIER.replace("K1\nK1\nK1\n", f"K1\nK1\n{line}\n")
+    with pytest.raises(GCodeError, match=r":8: a G6.2 block line holds only .*not G"):
+        read_text(text, source="p.nc")

@@ -146,8 +146,8 @@ class Interpreter(NurbsMotion, PassThrough):
             if block.words:
                 self._g5_line(block.words, lineno)
             return
-        if self.nurbs is not None:
-            if any(w.letter == "K" for w in block.words):
+        if self.nurbs is not None:  # a K line continues the block (G6.2 repeated, without P, is modal)
+            if any(w.letter == "K" for w in block.words) and not any(w.letter == "P" for w in block.words):
                 self._nurbs_line(block.words, lineno)
                 return
             if block.words:

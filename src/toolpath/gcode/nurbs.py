@@ -148,11 +148,13 @@ class NurbsMotion:
         self.nurbs.knots.append(values["K"])
 
     def _nurbs_line(self, words, lineno: int) -> None:  # noqa: ANN001 - the line's words
-        """A line of a G6.2 block: ``K X Y [Z] [R]`` (a control point) or a bare ``K`` (a closing knot)."""
-        values = {w.letter: w.value for w in words}
-        extra = sorted({w.letter for w in words} - set("KXYZRNF"))
+        """A line of a G6.2 block: ``K X Y [Z] [R]`` (a control point) or a bare ``K`` (a closing knot),
+        either one perhaps led by G6.2 again (LinuxCNC's examples write ``G6.2 K14`` closing knots)."""
+        values = {w.letter: w.value for w in words if w.letter != "G"}
+        extra = sorted({w.letter for w in words if not (w.letter == "G" and round(w.value, 1) == 6.2)} - set("KXYZRNF"))
         if extra:
-            raise self.fail(lineno, f"a G6.2 block line holds only K, X, Y, Z, R (N, F) words, not {', '.join(extra)}")
+            raise self.fail(lineno, f"a G6.2 block line holds only K, X, Y, Z, R (N, F) words (G6.2 repeated), "
+                                    f"not {', '.join(extra)}")
         if "F" in values:
             self.feed = values["F"] * (MM_PER_INCH if self.inch else 1.0)
         block = self.nurbs
