@@ -164,7 +164,8 @@ def test_program_end_stops_interpretation():
     ("G0 G1 X1\n", 1, "two motion"),
     ("G1 X\n", 1, "has no number"),
     ("G1 X1 A5\n", 1, "axis word A"),
-    ("G1 X1 $\n", 1, "unexpected character"),
+    ("G1 X1 &\n", 1, "unexpected character"),
+    ("G1 X1 $\n", 1, "word $ has no number"),  # LinuxCNC's spindle select: $0, $1
     ("G1 X1 X2\n", 1, "appears twice"),
     ("G0 X1\nG2 X2 Y0\n", 2, "needs I/J or R"),
     ("G0 X0\nG2 X10 Y0 I1 J0\n", 2, "radius to the end of the arc differs"),

@@ -257,7 +257,7 @@ def test_cli_refuses_an_existing_output_unless_forced(rough_file, tmp_path):
 
 def test_cli_names_file_and_line_of_unsupported_input_and_of_a_corrupt_model(tmp_path, rough_file):
     bad = tmp_path / "bad.nc"
-    bad.write_text("G21\nG1 X1 A5 F100\n")  # a rotary axis: refused (what G18 was, before it passed through)
+    bad.write_text("G21\nG2 X1 Y0 R0.1 F100\n")  # an R arc shorter than half its chord: LinuxCNC refuses it too
     done = _run(bad, "-o", tmp_path / "out.nc")
     assert done.returncode == 1 and f"{bad}:2:" in done.stderr and "Traceback" not in done.stderr
     garbage = tmp_path / "model.pt"

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from test_smooth import _run
-from toolpath.gcode import ReaderOptions, read_text
+from toolpath.gcode import GCodeError, ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.geometry.labels.windows import feed_runs
 
@@ -83,20 +83,30 @@ def system_parameter_program(seed: int = 3) -> list[str]:
     return lines
 
 
-def test_smoothing_stops_where_a_system_parameter_is_read(tmp_path):
-    """#5420 is the controller's current X, which the reader cannot know: from the window holding that
-    line on, the program is kept as it is, and the report says why."""
-    lines = system_parameter_program()
+@pytest.mark.parametrize("read", ["#5420", "#<_X>", "#<_hal[plasmac.cut-feed-rate]>", "# < _abs_y >"])
+def test_smoothing_stops_where_a_system_parameter_is_read(tmp_path, read):
+    """#5420 is the controller's current X, which the reader cannot know, as are LinuxCNC's read-only
+    named parameters and HAL pins: from the window holding that line on, the program is kept as it is,
+    and the report says why."""
+    lines = [line.replace("#5420", read) for line in system_parameter_program()]
     program = tmp_path / "p.nc"
     program.write_text("\n".join(lines) + "\n")
     done = _run(program, "-o", "out.nc", "--report", "r.json", "--method", "mean", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     after = (tmp_path / "out.nc").read_text().splitlines()
-    read_at = lines.index("#<x>=#5420 (where the controller stands)")
+    read_at = lines.index(f"#<x>={read} (where the controller stands)")
     assert after[:100] != lines[:100] and after[read_at - 30:] == lines[read_at - 30:]
     rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
-    kept = [r["status"].startswith("kept: #5420 at line 133") for r in rows]
-    assert kept[:2] == [False, False] and all(kept[2:]) and len(kept) > 3
+    said = read.replace(" ", "").lower()
+    kept = [r["status"].startswith(f"kept: {said} at line 133") for r in rows]
+    assert kept[:2] == [False, False] and all(kept[2:]) and len(kept) > 3, rows[2]["status"]
+
+
+def test_a_controller_parameter_is_named_where_the_reader_follows_the_program():
+    with pytest.raises(GCodeError, match=r"p.nc:2: word X: #<_x> is the controller's state"):
+        read_text("G21 G90\nG1 X[#<_x> + 1] F100\n", "p.nc")
+    with pytest.raises(GCodeError, match="named parameter #<_mine> is read before it is set"):
+        read_text("G21 G90\nG1 X[#<_mine> + 1] F100\n", "p.nc")  # a global of the program's, not the controller's
 
 
 def test_the_stop_carries_over_to_every_later_part_of_a_long_program(tmp_path):

@@ -6,11 +6,12 @@ their reason, and smoothing resumes where the position is known again (never aft
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
 
-from toolpath.gcode import ReaderOptions, read_text
+from toolpath.gcode import GCodeError, ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.command import main
@@ -43,6 +44,10 @@ CASES = {  # construct lines, the reason a window holding it gives, whether the 
     "homing": (["G28.2 X0 Y0"], "homing", True),
     "stored home unknown": (["G28 X20 Y0"], "never stored", True),
     "machine coordinates": (["G53 G0 Z0"], "G53", True),
+    "xz full circle": (["G18 G2 I0.5 K0", "G17"], "XZ plane", True),
+    "rotary axis": (["G1 X16.500 Y0.000 A90"], "a move of axis A", True),
+    "polar coordinates": (["G1 @2 ^45"], "polar coordinates", True),
+    "lathe diameter mode": (["G7"], "G7 (lathe diameter mode", False),
     "o-word": (["o100 call"], "O-word control flow", False),
     "m98": (["M98 P1000"], "M98", False),
 }
@@ -105,3 +110,39 @@ def test_a_window_holding_such_a_line_is_kept_with_its_reason(tmp_path, name):
     rows = json.loads((tmp_path / "r.json").read_text())["window_rows"]
     kept = [row for row in rows if str(row.get("status", "")).startswith("kept")]
     assert kept and all(reason in row["status"] for row in kept), rows
+
+
+# LinuxCNC runs each of these (its own nc_files examples hold every kind); the reader follows them as it does
+LINUXCNC_READS = {  # program after "G21 G90 G17\nG0 X0 Y0 Z0\nG1 F100\n", where the tool ends (mm)
+    "full circle (centre format, no end point)": ("G2 I0.5 J0.5\n", (0.0, 0.0, 0.0)),
+    "G53 G0 leaves G0 in effect": ("G53 G0 Z0\nX2 Y3\n", (2.0, 3.0, None)),
+    "spindle select, analog output, CSS": ("M3 $1 S1\nM68 E3 Q0\nG96 S200 M3\nG97 S1000\nG8\nG1 X1 Y1\n",
+                                           (1.0, 1.0, 0.0)),
+    "tool length offset words are not a move": ("G43.1 Z5\nG1 X1 Y2\n", (1.0, 2.0, 0.0)),
+    "G5.2 in the YZ plane": ("G19\nG5.2 P1 L3\nY0 Z1 P1\nY2 Z2 P1\nY2 Z0 P1\nY0 Z0 P2\nG5.3\nG17\n",
+                             (0.0, 0.0, 0.0)),
+    "G5.2 in the XZ plane": ("G18\nG5.2 P1 L3\nX1 Z1 P1\nX2 Z2 P1\nX3 Z0 P1\nG5.3\nG17\n", (3.0, 0.0, 0.0)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LINUXCNC_READS))
+def test_what_linuxcnc_runs_is_read(name):
+    text, end = LINUXCNC_READS[name]
+    program = read_text("G21 G90 G17\nG0 X0 Y0 Z0\nG1 F100\n" + text + "M2\n",
+                        options=ReaderOptions(pass_through=True))
+    assert all(e is None or abs(p - e) < 1e-9 for p, e in zip(program.points[-1], end, strict=True))
+    if name.startswith("full circle"):  # the whole circle is drawn: its far side is one diameter away
+        assert np.hypot(*program.points[:, :2].T).max() == pytest.approx(np.sqrt(2.0), abs=1e-3)
+    if name.startswith("G5.2 in the YZ"):  # the curve stays in its plane and bulges towards Y2 Z2
+        assert np.abs(program.points[:, 0]).max() == 0 and program.points[:, 2].max() > 0.5
+
+
+@pytest.mark.parametrize("text, said", [
+    ("G1 X1 E5\n", "axis word E is not supported"),  # E is only an M66-M68 channel
+    ("G1 X1 A90\n", "axis word A is not supported"),
+    ("G1 @1 ^90\n", "polar coordinates (@ ^) are not supported"),
+    ("G19\n", "not G19"),
+])
+def test_without_passing_through_the_reader_still_names_what_it_does_not_follow(text, said):
+    with pytest.raises(GCodeError, match=re.escape(said)):
+        read_text("G21 G90 G17\nG0 X0 Y0 Z0\nG1 F100\n" + text, "p.nc")

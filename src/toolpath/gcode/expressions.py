@@ -33,16 +33,41 @@ class ExpressionError(ValueError):
     """What is wrong with a parameter or expression (the lexer adds file and line)."""
 
 
-class Parameters:
-    """The parameter table of one program run."""
+#: LinuxCNC's read-only named parameters (``interp_namedparams.cc``): the controller's state (position,
+#: modes, tool, overrides), which a reader of the text alone does not know; so are ``_hal[pin]`` and
+#: ``_ini[section]name`` reads
+_CONTROLLER_NAMES = (
+    "line motion_mode plane ccomp metric imperial absolute incremental inverse_time units_per_minute "
+    "units_per_rev coord_system tool_offset retract_r_plane retract_old_z control_mode spindle_rpm_mode "
+    "spindle_css_mode ijk_absolute_mode lathe_diameter_mode lathe_radius_mode spindle_on spindle_cw mist flood "
+    "speed_override feed_override adaptive_feed feed_hold feed rpm current_tool current_pocket selected_pocket "
+    "selected_tool x y z a b c u v w abs_x abs_y abs_z abs_a abs_b abs_c abs_u abs_v abs_w value value_returned "
+    "task call_level remap_level")
+CONTROLLER_NAMES = frozenset(_CONTROLLER_NAMES.split())
 
-    def __init__(self) -> None:
+
+def controller_name(key: str) -> bool:
+    """Whether named parameter ``key`` (lower case, no blanks) is one only the controller knows."""
+    return (key.startswith("_") and key[1:] in CONTROLLER_NAMES) or key.startswith(("_hal[", "_ini["))
+
+
+class Parameters:
+    """The parameter table of one program run.  ``controller_as_zero``: a read of the controller's own
+    state (:func:`controller_name`) gives 0 where the caller stops following the program there."""
+
+    def __init__(self, controller_as_zero: bool = False) -> None:
         self.numbered: dict[int, float] = {}
         self.named: dict[str, float] = {}
+        self.controller_as_zero = controller_as_zero
 
     def get(self, key: int | str) -> float:
         if isinstance(key, str):
             if key not in self.named:
+                if controller_name(key):
+                    if self.controller_as_zero:
+                        return 0.0
+                    raise ExpressionError(f"#<{key}> is the controller's state, which a reader of the program "
+                                          "text does not know")
                 raise ExpressionError(f"named parameter #<{key}> is read before it is set")
             return self.named[key]
         return self.numbered.get(key, 0.0)

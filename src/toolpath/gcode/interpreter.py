@@ -47,7 +47,9 @@ MAX_POINTS = 20_000_000
 
 
 _MOTION = {0: 0, 1: 1, 2: 2, 3: 3}
-_ACCEPTED_G = {4, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 98, 99}
+# G8: lathe radius mode, the default; G96 / G97: spindle speed modes; G43.1 / G43.2 (below): tool length
+# offsets, whose axis words are offsets, not a move
+_ACCEPTED_G = {4, 8, 17, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 93, 94, 95, 96, 97, 98, 99}
 _REJECTED_G = {
     5: "of the G5 group only G5.2 / G5.3 (NURBS) are supported", 6: "of the G6 group only G6.2 (NURBS) is supported",
     18: "only the XY plane (G17) is supported, not G18", 19: "only the XY plane (G17) is supported, not G19",
@@ -74,7 +76,7 @@ class Interpreter(NurbsMotion, PassThrough):
         self.feed: float | None = None
         self.ended = False
         self.started = False  # a line with words (or a '%') has been seen
-        self.params = Parameters()
+        self.params = Parameters(controller_as_zero=options.pass_through)  # toolpath smooth stops there
         self.nurbs: NurbsBlock | None = None  # a NURBS block being read
         self.table: StateTable | None = None  # the rows of the text being read, for a closing NURBS block
         self.text = ""  # the text being read, for the lines run_plain hands to run_block
@@ -122,7 +124,7 @@ class Interpreter(NurbsMotion, PassThrough):
                 raise self.fail(lineno, _REJECTED_G[major])
             elif code == major and major in _CANNED:
                 raise self.fail(lineno, f"canned cycle G{major} is not supported")
-            elif code in (20, 21, 90, 91, 90.1, 91.1, 92, 92.1, 92.2, 92.3, 28, 28.1, 30, 30.1) or (
+            elif code in (20, 21, 90, 91, 90.1, 91.1, 92, 92.1, 92.2, 92.3, 28, 28.1, 30, 30.1, 43.1, 43.2) or (
                 code == major and major in _ACCEPTED_G
             ):
                 others.append(code)
@@ -162,6 +164,8 @@ class Interpreter(NurbsMotion, PassThrough):
             self.check_decimal_points(words, lineno)
         values = {w.letter: w.value for w in words if w.letter not in "GM"}
         motion, others = self._g_codes(words, lineno)
+        if values.keys() & set("ABCUVWE@^"):
+            self.other_words(values, {int(w.value) for w in words if w.letter == "M"}, lineno)
         for w in words:
             if w.letter == "M":
                 if w.value != int(w.value) or not 0 <= w.value <= 199:
@@ -202,6 +206,8 @@ class Interpreter(NurbsMotion, PassThrough):
         if 5.2 in others:
             self._open_g5(motion, values, lineno)
             return
+        if 43.1 in others or 43.2 in others:  # a tool length offset: its words are the offset
+            return
         if 92 in others or 92.1 in others or 92.2 in others:
             self._set_offset(others, values)
             if 92 in others:
@@ -222,8 +228,8 @@ class Interpreter(NurbsMotion, PassThrough):
             self.motion = motion
         axes = [a for a in "XYZ" if a in values]
         if not axes:
-            if motion in (2, 3) and not self.ended:
-                raise self.fail(lineno, f"G{motion} without an end point")
+            if motion in (2, 3) and not self.ended:  # LinuxCNC: the end is the start, a full circle
+                self._move(values, lineno)
             return
         if self.motion is None:
             raise self.fail(lineno, "axis words with no motion mode in effect (after G80 or a NURBS block)")

@@ -16,8 +16,9 @@ from toolpath.gcode.expressions import ExpressionError, Parameters, Scanner
 
 # A word is a letter and a real number; LinuxCNC also allows blanks between sign and digits.
 _NUMBER = re.compile(r"\s*([+-]?)\s*(\d+\.?\d*|\.\d+)")
-_KNOWN_LETTERS = set("GMNFSTHDXYZIJKRPQL")
-_UNSUPPORTED_AXES = set("ABCUVWE")
+# the interpreter decides on A B C U V W (axes it does not follow), E (an M66-M68 channel) and LinuxCNC's
+# polar words @ (distance) and ^ (angle); $ selects a spindle (LinuxCNC)
+_KNOWN_LETTERS = set("GMNFSTHDXYZIJKRPQLABCUVWE@^$")
 # The largest magnitude a word may have: 1e9 (a kilometre in micrometres, a million in any feed or speed);
 # past it a number is a typo or an attack, and 1e400 would be infinity.
 MAX_WORD_VALUE = 1.0e9
@@ -76,7 +77,7 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
     ------
     GCodeError
         For malformed words and for features the reader does not support: ``#`` parameters and
-        ``[ ]`` expressions without ``params``, O-word control flow, rotary or extruder axes.
+        ``[ ]`` expressions without ``params``, O-word control flow.
     """
     stripped = line.strip()
     if stripped.startswith("%"):
@@ -105,13 +106,11 @@ def tokenize(line: str, source: str = "<string>", lineno: int = 0, params: Param
         upper = ch.upper()
         if upper == "O":
             raise GCodeError(source, lineno, "O-word control flow (subroutines, loops) is not supported")
-        if not ch.isalpha():
+        if not ch.isalpha() and ch not in "@^$":
             raise GCodeError(source, lineno, f"unexpected character {ch!r}")
         if upper == "E" and words and body[i - 1 : i].isdigit() and _NUMBER.match(body, i + 1) is not None:
             raise GCodeError(source, lineno, f"{words[-1].letter}{words[-1].text}{body[i:match_end(body, i + 1)]}: "
                                              "exponent notation is not G-code (a number is digits with one '.')")
-        if upper in _UNSUPPORTED_AXES:
-            raise GCodeError(source, lineno, f"axis word {upper} is not supported (XYZ milling only)")
         if upper not in _KNOWN_LETTERS:
             raise GCodeError(source, lineno, f"unknown word letter {upper!r}")
         match = _NUMBER.match(body, i + 1)

@@ -181,13 +181,20 @@ class NurbsMotion:
             raise self.fail(lineno, f"G5.2 L{order:g}: the order of the NURBS must be a whole number 2-10")
         self.nurbs = NurbsBlock(int(order), lineno, last_line=lineno, kind="G5.2")
         self.motion = None
-        placed = "X" in values or "Y" in values
+        in_plane, off_plane = self._g5_axes()
+        placed = any(a in values for a in in_plane)
         self.nurbs.points.append(self.pos.copy())
         self.nurbs.weights.append(1.0 if placed else self._g5_weight(values, lineno))
         if placed:
             self._g5_point(values, lineno)
-        elif "Z" in values:
-            raise self.fail(lineno, "a G5.2 NURBS lies in the XY plane: no Z inside the block")
+        elif off_plane in values:
+            raise self.fail(lineno, f"a G5.2 NURBS lies in the {in_plane} plane: no {off_plane} inside the block")
+
+    def _g5_axes(self) -> tuple[str, str]:
+        """The axes of the selected plane (G17 XY; G18 XZ and G19 YZ where the reader passes through)
+        and the one off it: LinuxCNC draws a G5.2 block in the selected plane."""
+        in_plane = {18: "XZ", 19: "YZ"}.get(getattr(self, "plane", 17), "XY")
+        return in_plane, next(a for a in "XYZ" if a not in in_plane)
 
     def _g5_weight(self, values: dict[str, float], lineno: int) -> float:
         weight = values.get("P", 1.0)
@@ -196,10 +203,11 @@ class NurbsMotion:
         return weight
 
     def _g5_point(self, values: dict[str, float], lineno: int) -> None:
-        if "Z" in values:
-            raise self.fail(lineno, "a G5.2 NURBS lies in the XY plane: no Z inside the block")
+        in_plane, off_plane = self._g5_axes()
+        if off_plane in values:
+            raise self.fail(lineno, f"a G5.2 NURBS lies in the {in_plane} plane: no {off_plane} inside the block")
         scale, point = MM_PER_INCH if self.inch else 1.0, self.nurbs.points[-1].copy()
-        for i, a in enumerate("XY"):
+        for i, a in enumerate("XYZ"):
             if a in values:
                 point[i] = values[a] * scale + self.offset[i]
         self.nurbs.points.append(point)
@@ -222,10 +230,11 @@ class NurbsMotion:
             block.last_line, block.closed = lineno, True
             block.knots = linuxcnc_knots(len(block.points), block.order)
             self.close_nurbs(lineno)
-        elif "X" in values or "Y" in values:
+        elif any(a in values for a in "XYZ"):
             self._g5_point(values, lineno)
         elif values.keys() - {"N", "F"}:
-            raise self.fail(lineno, "a G5.2 control point needs X or Y")
+            in_plane = self._g5_axes()[0]
+            raise self.fail(lineno, f"a G5.2 control point needs {in_plane[0]} or {in_plane[1]}")
 
     def close_nurbs(self, last_row: int) -> None:
         """End the open block: its chords become points of its last line (the last K line, or G5.3);

@@ -94,7 +94,7 @@ class PassThrough:
         """How the pass-through reads G ``code``: ``motion`` (a canned cycle), ``other`` or None (not its)."""
         if code == major and major in CYCLES:
             return "motion"
-        if code in (18, 19, 41, 42, 41.1, 42.1, 53, 5, 5.1, 28.2, 28.3) or code in _PROBES:
+        if code in (7, 18, 19, 41, 42, 41.1, 42.1, 53, 5, 5.1, 28.2, 28.3) or code in _PROBES:
             return "other"
         return None
 
@@ -108,6 +108,14 @@ class PassThrough:
             elif code in (41, 42, 41.1, 42.1):
                 self.comp = f"G{code:g}"
         axes = [a for a in "XYZ" if a in values]
+        if 7 in others:
+            self.stop_following(lineno, "G7 (lathe diameter mode: X is a diameter)")
+            return True
+        if polar := [a for a in "@^" if a in values]:  # LinuxCNC's polar words: a move the reader does not follow
+            if motion is not None:
+                self.motion = motion
+            self._past(lineno, f"polar coordinates ({' '.join(polar)})", XY)
+            return True
         if probe := next((c for c in others if c in _PROBES), None):
             self._past(lineno, f"G{probe:g} probing", axes or "XYZ")
             return True
@@ -115,6 +123,8 @@ class PassThrough:
             self._past(lineno, f"G{home:g} homing", axes or "XYZ")
             return True
         if 53 in others:
+            if motion is not None:  # G53 is for this line; its G0 / G1 stays the motion mode
+                self.motion = motion
             self._past(lineno, "G53 (machine coordinates)", axes)
             return True
         if motion in CYCLES or (motion is None and self.motion in CYCLES and axes):
@@ -124,7 +134,7 @@ class PassThrough:
             return True
         spline = next((c for c in others if c in (5, 5.1)), None)
         arc = (motion if motion is not None else self.motion) in (2, 3)
-        if spline is not None or (axes and self.plane != 17 and arc):
+        if spline is not None or (self.plane != 17 and arc and (axes or motion is not None)):  # or a full circle
             if motion is not None:
                 self.motion = motion
             target = self._target(values)
@@ -137,6 +147,18 @@ class PassThrough:
         if self.comp is not None and axes:
             self._past(lineno, f"cutter compensation {self.comp}", XY)
         return False
+
+    def other_words(self, values: dict[str, float], m_codes: set[int], lineno: int) -> None:
+        """Words of a line beyond XYZ milling: E is the channel of M66 / M67 / M68; A B C U V W move axes
+        the reader does not follow (the line is read past, its XYZ move followed); @ ^ are polar words."""
+        if "E" in values and not m_codes & {66, 67, 68}:
+            raise self.fail(lineno, "axis word E is not supported (XYZ milling only)")
+        if moving := [a for a in "ABCUVW" if a in values]:
+            if not self.opt.pass_through:
+                raise self.fail(lineno, f"axis word {moving[0]} is not supported (XYZ milling only)")
+            self._past(lineno, f"a move of axis {' '.join(moving)}")
+        if not self.opt.pass_through and ("@" in values or "^" in values):
+            raise self.fail(lineno, "polar coordinates (@ ^) are not supported")
 
     def moved(self, values: dict[str, float]) -> None:
         """After a move: an axis stated in absolute mode is known again (not under compensation)."""

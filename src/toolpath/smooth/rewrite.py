@@ -24,6 +24,7 @@ import numpy as np
 
 from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_plain_xy, substitute_xy
 from toolpath.gcode.errors import GCodeError
+from toolpath.gcode.expressions import controller_name
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt_many
@@ -143,8 +144,10 @@ def switch_stable(program: Program, read_options: ReaderOptions | None, start: R
 
 
 #: a read of a system parameter: LinuxCNC's #5000-#5999 hold what the controller knows (the current position
-#: #5420-#5428, G28 / G30 / G92 and work offsets, probe results, the tool); the reader does not know them
-_SYSTEM_PARAMETER = re.compile(r"#\s*0*5\d{3}(?!\d)")
+#: #5420-#5428, G28 / G30 / G92 and work offsets, probe results, the tool), as do its read-only named
+#: parameters and _hal[] / _ini[] reads; the reader does not know them.  Matched on the line without
+#: comments or blanks, in lower case (LinuxCNC reads a line so).
+_SYSTEM_PARAMETER = re.compile(r"#0*5\d{3}(?!\d)|#<(_[a-z_\[\].\-0-9]*)>")
 _COMMENT = re.compile(r"\([^)]*\)?|;.*")
 
 
@@ -154,8 +157,10 @@ def controller_state_read(program: Program) -> tuple[int, str] | None:
     for number, raw in enumerate(program.lines, start=1):
         if "#" not in raw:
             continue
-        if found := _SYSTEM_PARAMETER.search(_COMMENT.sub(" ", raw)):
-            return number, found.group(0).replace(" ", "")
+        line = re.sub(r"\s+", "", _COMMENT.sub(" ", raw)).lower()
+        for found in _SYSTEM_PARAMETER.finditer(line):
+            if found.group(1) is None or controller_name(found.group(1)):
+                return number, found.group(0)
     return None
 
 
