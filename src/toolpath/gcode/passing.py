@@ -22,7 +22,7 @@ import re
 XY = frozenset("XY")
 CYCLES = frozenset(range(73, 90)) - {80}
 _PLANES = {17: "XY", 18: "XZ", 19: "YZ"}
-_PROBES = {38.2, 38.3, 38.4, 38.5}
+_PROBES = {31, 38.2, 38.3, 38.4, 38.5}  # G31: Mach3 / Mach4 (and Fanuc's skip) probing
 _PROGRAM_NUMBER = re.compile(r"\s*[oO]\s*\d+\s*$")
 _INTEGER_AXIS = re.compile(r"([XYZIJKRxyzijkr])\s*([+-]?\s*0*[1-9]\d*)(?![\d.])")  # X0 is 0 either way
 _DECIMAL_LETTERS = "XYZIJKR"
