@@ -41,6 +41,7 @@ CASES = {  # construct lines, the reason a window holding it gives, whether the 
     "cutter compensation": (["G41 D1", "G1 X17.000 Y1.000", "G1 X20.000 Y1.000", "G40"], "cutter compensation G41",
                             True),
     "probing": (["G38.2 Z-5 F50", "G0 Z1"], "probing", True),
+    "mach probing": (["G31 Z-5 F50", "G0 Z1"], "G31 probing", True),  # Mach3 / Mach4, pcb2gcode's autoleveller
     "homing": (["G28.2 X0 Y0"], "homing", True),
     "stored home unknown": (["G28 X20 Y0"], "never stored", True),
     "machine coordinates": (["G53 G0 Z0"], "G53", True),
