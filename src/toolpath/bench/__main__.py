@@ -1,6 +1,6 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs] [--threads N]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
@@ -12,7 +12,9 @@ side (:mod:`toolpath.bench.runtimes`; needs the pipeline's models), with the int
 (:mod:`toolpath.bench.kernels`).  Writes ``reports/bench/gcode.json``:
 reading a G01-dense program and ``toolpath smooth`` end to end, beside gcodeparser and pygcode
 (:mod:`toolpath.bench.gcode`).  Writes ``reports/bench/arcs.json``: ``toolpath smooth --arcs --method none``
-beside ArcWelder where it is given (:mod:`toolpath.bench.arcs`).  Prints the tables.
+beside ArcWelder where it is given (:mod:`toolpath.bench.arcs`).  With ``--only programs --programs DIR``,
+writes ``reports/bench/programs.json``: ``toolpath smooth`` on every program under DIR, each changed output
+checked by a reader written apart (:mod:`toolpath.bench.programs`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -105,13 +107,19 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs"),
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
     parser.add_argument("--arcwelder", help="ArcWelder's console binary (else $ARCWELDER, $ARCWELDER_SRC)")
+    parser.add_argument("--programs", type=Path, help="--only programs: a folder of other people's G-code")
+    parser.add_argument("--units", choices=("mm", "inch"), help="--only programs: for a program that sets none")
     args = parser.parse_args(argv)
+    if args.only == "programs":
+        if args.programs is None or not args.programs.is_dir():
+            parser.error("--only programs needs --programs DIR, a folder of G-code programs")
+        return _programs(args.programs, args.units)
     if args.only in (None, "arcs"):
         _arcs(args.arcwelder)
         if args.only == "arcs":
@@ -241,6 +249,25 @@ def _arcs(arcwelder: str | None) -> None:
     Console().print(table)
     print(f"arcs only: {result['arcs_only_lines_per_s']:,.0f} lines/s on the G01-dense program; "
           f"wrote {OUT / 'arcs.json'}")
+
+
+def _programs(folder: Path, units: str | None) -> int:
+    from toolpath.bench.programs import measure
+
+    result = measure(folder, units)
+    write_json(result, OUT / "programs.json")
+    summary = result["summary"]
+    table = Table(title=f"toolpath smooth on {folder}: {summary['exit_0']} of {summary['programs']} exit 0; "
+                        f"{summary['checked']} changed outputs checked apart, largest distance "
+                        f"{summary['largest_distance_mm']:.4f} mm, {summary['runs_mismatch']} feed-run mismatches")
+    for column in ("program", "exit", "last line"):
+        table.add_column(column)
+    for name, row in result["programs"].items():
+        if row["exit"] != 0 or not row.get("check", {}).get("checked", True):
+            table.add_row(name, str(row["exit"]), row.get("check", {}).get("why") or row["said"][-120:])
+    Console().print(table)
+    print(f"wrote {OUT / 'programs.json'}")
+    return 0
 
 
 @contextlib.contextmanager
