@@ -32,7 +32,16 @@ def test_inches_and_incremental_moves():
 def test_what_it_does_not_follow_is_unchecked_not_passed():
     with pytest.raises(Unfollowed):
         feed_paths("G21\nG1 X[1+1]\n")
-    assert check("G21\nG18\nG1 X1\n", "G21\nG18\nG1 X1\n") == {"checked": False, "why": "G18"}
+    assert check("G21\nG41 D1\nG1 X1\n", "G21\nG41 D1\nG1 X1\n") == {"checked": False, "why": "G41"}
+    with pytest.raises(Unfollowed, match=r"grbl \$H"):
+        feed_paths("G21\n$H\nG1 X1\n")
+
+
+def test_an_xz_half_circle_projects_onto_its_diameter_and_program_numbers_and_grbl_reports_are_read_past():
+    # G18: the plane's axes are (Z, X); G2 from X0 Z0 about X1 Z0 to X2 Z0 passes Z = +1 (clockwise seen from +Y)
+    [run] = feed_paths("O1006\n$$\n?\nG21 G90\nG0 X0 Y3 Z0\nG18 G2 X2 Z0 I1 K0 F100\n")
+    assert np.allclose(run[:, 1], 3.0) and run[:, 0].min() >= -1e-12 and run[-1] == pytest.approx([2.0, 3.0])
+    assert len(run) > 100  # sampled along the arc, not one chord
 
 
 def test_the_two_sided_distance_of_a_line_and_its_shifted_copy():

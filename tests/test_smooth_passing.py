@@ -98,6 +98,33 @@ def test_a_fanuc_program_number_and_whole_zeros_are_read_in_the_fanuc_dialect(tm
     assert (tmp_path / "out.nc").read_bytes() == source.read_bytes()
 
 
+@pytest.mark.parametrize("construct, reason", [
+    (["$H"], "grbl $H (homing)"), (["$J=G91 X5 F100"], "grbl $J (jogging)"), (["$RST=#"], "grbl $RST"),
+    (["$$", "$I ; build info", "?", "$1=25", "$X"], None),  # reports, a setting, an unlock: nothing moves
+])
+def test_grbl_system_commands_in_the_grbl_dialect(tmp_path, capsys, construct, reason):
+    text, a, b = program(construct)
+    source = tmp_path / "p.nc"
+    source.write_text(text)
+    code = main([str(source), "-o", str(tmp_path / "out.nc"), "--report", str(tmp_path / "r.json"),
+                 "--method", "mean", "--dialect", "grbl"])
+    assert code == 0, capsys.readouterr().err
+    before, after = text.splitlines(), (tmp_path / "out.nc").read_text().splitlines()
+    assert [after[k] for k in range(a.stop, a.stop + len(construct))] == construct
+    assert _changed(before, after, a) > 0 and _changed(before, after, b) > 0
+    passed = json.loads((tmp_path / "r.json").read_text())["passed_through"]
+    assert any(reason in p for p in passed) if reason else not any("grbl" in p for p in passed)
+
+
+@pytest.mark.parametrize("line, accepted", [("$$", False), ("$H", False), ("?", False), ("$1 M3 S1000", True)])
+def test_linuxcnc_refuses_grbl_commands_but_reads_its_own_spindle_word(tmp_path, capsys, line, accepted):
+    source = tmp_path / "p.nc"
+    source.write_text(f"G21 G90\nG0 X0 Y0\n{line}\nG1 X1. Y0. F300.\nM30\n")
+    code = main([str(source), "-o", str(tmp_path / "out.nc")])
+    assert code == (0 if accepted else 1)
+    assert accepted or "p.nc:3:" in (err := capsys.readouterr().err) and "pass --dialect grbl" in err
+
+
 @pytest.mark.parametrize("name", ["canned cycle", "cutter compensation", "probing", "homing"])
 def test_a_window_holding_such_a_line_is_kept_with_its_reason(tmp_path, name):
     construct, reason, _ = CASES[name]

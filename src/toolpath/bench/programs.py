@@ -7,7 +7,8 @@ Every ``.nc .ngc .tap .gcode .cnc`` file under DIR is smoothed in its own proces
 (exit code and last line kept); a program that sets no units is run again with ``--units`` when it is
 given, as a user told so would.  Each output that differs from its input is read back, with the input,
 by :func:`feed_paths`: a minimal RS-274 reader that shares no code with :mod:`toolpath.gcode` (G0-G3,
-I/J and R arcs in G17, G20 / G21, G90 / G91, comments, N words; a program holding anything else it
+I/J/K and R arcs in G17-G19, G20 / G21, G90 / G91, comments, N words, Fanuc program numbers, grbl's
+``$`` reports and settings; a program holding anything else it
 does not follow is counted as unchecked, never passed).  Per feed run, the two-sided distance of the
 two paths, each sampled every :data:`STEP` mm (a KD-tree), so a figure may exceed the true one by
 STEP / 2.  The JSON lists every program with its outcome; the summary counts them.
@@ -27,7 +28,7 @@ import numpy as np
 SUFFIXES = {".nc", ".ngc", ".tap", ".gcode", ".cnc"}
 STEP = 0.001  # mm between the samples of a path
 _WORD = re.compile(r"([A-Za-z])\s*([+-]?(?:\d+\.?\d*|\.\d+))")
-_FOLLOWED_G = {0, 1, 2, 3, 4, 17, 20, 21, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 90, 91, 94, 97}
+_FOLLOWED_G = {0, 1, 2, 3, 4, 17, 18, 19, 20, 21, 40, 43, 49, 54, 55, 56, 57, 58, 59, 61, 64, 80, 90, 91, 94, 97}
 
 
 class Unfollowed(ValueError):
@@ -49,15 +50,51 @@ def _arc(start, end, centre, clockwise: bool) -> list[tuple[float, float]]:
     return points
 
 
+# RS-274's arc planes: (first axis, second axis, their centre words); clockwise as seen from the third axis
+_PLANES = {17: ("X", "Y", "I", "J"), 18: ("Z", "X", "K", "I"), 19: ("Y", "Z", "J", "K")}
+_AXES = "XYZ"
+_PROGRAM_NUMBER = re.compile(r"[oO]\s*\d+$")  # a Fanuc / Haas program number (run with --dialect fanuc)
+_GRBL_MOVING = ("$H", "$J", "$RST")  # grbl system commands after which the position is the machine's
+
+
+def _arc_points(start, end, words: dict, plane: int, clockwise: bool, scale: float) -> list:
+    """XYZ points of an arc in ``plane`` (a helix along the third axis), by :func:`_arc` in the plane's axes."""
+    a, b, i, j = _PLANES[plane]
+    ia, ib = _AXES.index(a), _AXES.index(b)
+    p0, p1 = (start[ia], start[ib]), (end[ia], end[ib])
+    if "R" in words:
+        r, chord = words["R"] * scale, math.dist(p0, p1)
+        h = math.sqrt(max(r * r - chord * chord / 4.0, 0.0)) * (1 if (not clockwise) == (r > 0) else -1)
+        mid = ((p0[0] + p1[0]) / 2.0, (p0[1] + p1[1]) / 2.0)
+        centre = (mid[0] - h * (p1[1] - p0[1]) / chord, mid[1] + h * (p1[0] - p0[0]) / chord)
+    else:
+        centre = (p0[0] + words.get(i, 0.0) * scale, p0[1] + words.get(j, 0.0) * scale)
+    planar = _arc(p0, p1, centre, clockwise)
+    third = 3 - ia - ib
+    along = np.linspace(start[third], end[third], len(planar) + 1)[1:]
+    points = []
+    for (u, v), w in zip(planar, along, strict=True):
+        point = [0.0, 0.0, 0.0]
+        point[ia], point[ib], point[third] = u, v, w
+        points.append(tuple(point))
+    return points
+
+
 def feed_paths(text: str) -> list[np.ndarray]:
-    """The XY polyline of every feed run (G1-G3 moves between rapids), in mm."""
-    x = y = 0.0
-    inch, absolute, motion = False, True, None
+    """The XY polyline of every feed run (G1-G3 moves between rapids), in mm; arcs of the XZ / YZ planes
+    are followed in 3-D and projected.  A Fanuc program number and grbl's ``$`` reports and settings are
+    read past; grbl homing, jogging or an offset reset make the program unfollowed."""
+    pos = [0.0, 0.0, 0.0]
+    inch, absolute, motion, plane = False, True, None, 17
     runs: list[np.ndarray] = []
-    current: list[tuple[float, float]] | None = None
+    current: list[tuple[float, float, float]] | None = None
     for raw in text.splitlines():
-        line = re.sub(r"\([^)]*\)|;.*", " ", raw).strip().lstrip("/")
-        if not line or line.startswith("%"):
+        line = re.sub(r"\([^)]*\)|;.*", " ", raw).strip().lstrip("/").strip()
+        if not line or line.startswith("%") or _PROGRAM_NUMBER.match(line) or set(line) <= set("?~!"):
+            continue
+        if line.startswith("$"):
+            if line.upper().startswith(_GRBL_MOVING):
+                raise Unfollowed(f"grbl {line[:10]}")
             continue
         if any(c in line for c in "#[@^oO"):
             raise Unfollowed(f"parameters, expressions, polar words or O-words: {raw.strip()[:40]}")
@@ -68,35 +105,27 @@ def feed_paths(text: str) -> list[np.ndarray]:
             if code not in _FOLLOWED_G and not (code == 53 and not {"X", "Y"} & {w for w, _ in words}):
                 raise Unfollowed(f"G{code:g}")  # (a G53 move of Z alone leaves the XY path as it is)
             motion = int(code) if code in (0, 1, 2, 3) else None if code == 80 else motion
+            plane = int(code) if code in _PLANES else plane
             inch = code == 20 or (inch and code != 21)
             absolute = code == 90 or (absolute and code != 91)
         given = dict(words)
         scale = 25.4 if inch else 1.0
         explicit_arc = any(letter == "G" and value in (2, 3) for letter, value in words)
-        if not ("X" in given or "Y" in given or (explicit_arc and ("I" in given or "J" in given))):
+        if not (any(a in given for a in _AXES) or (explicit_arc and any(c in given for c in "IJK"))):
             if any(m in (2, 30) for letter, m in words if letter == "M"):
                 break
             continue
-        nx = (given["X"] * scale if absolute else x + given["X"] * scale) if "X" in given else x
-        ny = (given["Y"] * scale if absolute else y + given["Y"] * scale) if "Y" in given else y
+        new = [(given[a] * scale if absolute else pos[k] + given[a] * scale) if a in given else pos[k]
+               for k, a in enumerate(_AXES)]
         if motion in (1, 2, 3):
-            current = current or [(x, y)]
-            if motion == 1:
-                current.append((nx, ny))
-            elif "R" in given:
-                r, chord = given["R"] * scale, math.dist((x, y), (nx, ny))
-                h = math.sqrt(max(r * r - chord * chord / 4.0, 0.0)) * (1 if (motion == 3) == (r > 0) else -1)
-                mx, my = (x + nx) / 2.0, (y + ny) / 2.0
-                current += _arc((x, y), (nx, ny), (mx - h * (ny - y) / chord, my + h * (nx - x) / chord), motion == 2)
-            else:
-                centre = (x + given.get("I", 0.0) * scale, y + given.get("J", 0.0) * scale)
-                current += _arc((x, y), (nx, ny), centre, motion == 2)
+            current = current or [tuple(pos)]
+            current += [tuple(new)] if motion == 1 else _arc_points(pos, new, given, plane, motion == 2, scale)
         elif current is not None:
-            runs += [np.array(current)] if len(current) > 1 else []
+            runs += [np.array(current)[:, :2]] if len(current) > 1 else []
             current = None
-        x, y = nx, ny
+        pos = new
     if current is not None and len(current) > 1:
-        runs.append(np.array(current))
+        runs.append(np.array(current)[:, :2])
     return runs
 
 
@@ -132,7 +161,9 @@ def _smooth(path: Path, out: Path, extra: list[str]) -> tuple[int, str]:
     done = subprocess.run([sys.executable, "-m", "toolpath.cli", "smooth", str(path), "-o", str(out), "--force",
                            *extra], capture_output=True, text=True, timeout=600, check=False)
     said = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
-    return done.returncode, said[-1][:300] if said else ""
+    # paths out of the recorded line, so two runs of the bench compare byte for byte
+    last = said[-1].replace(str(out), "out.nc").replace(str(path.parent) + "/", "") if said else ""
+    return done.returncode, last[:300]
 
 
 def measure(folder: Path, units: str | None) -> dict:
@@ -144,9 +175,17 @@ def measure(folder: Path, units: str | None) -> dict:
         for path in programs:
             code, said = _smooth(path, out, [])
             row = {"exit": code, "said": said}
-            if code == 2 and units and "sets no units" in said:
-                code, said = _smooth(path, out, ["--units", units])
-                row = {"exit": code, "said": said, "units_given": units}
+            for _ in range(2):  # what the tool asks a user for, given as a user told so would
+                dialect = re.search(r"pass --dialect (\w+)", said) if code != 0 else None
+                if code == 2 and units and "sets no units" in said and "units_given" not in row:
+                    extra, row["units_given"] = ["--units", units], units
+                elif dialect and "dialect_given" not in row:
+                    extra, row["dialect_given"] = ["--dialect", dialect.group(1)], dialect.group(1)
+                else:
+                    break
+                code, said = _smooth(path, out, [*row.get("extra", []), *extra])
+                row.update({"exit": code, "said": said, "extra": [*row.get("extra", []), *extra]})
+            row.pop("extra", None)
             if code == 0 and out.read_bytes() != path.read_bytes():  # latin-1: comments may be in any 8-bit code
                 row["check"] = check(path.read_text(encoding="latin-1"), out.read_text(encoding="latin-1"))
             rows[str(path.relative_to(folder))] = row

@@ -22,7 +22,8 @@ class ReaderOptions:
         ``blind`` in the :class:`~toolpath.gcode.program.StateTable` until the reader knows X and Y again.
     dialect : ``linuxcnc`` (default), ``fanuc`` (an ``O1234`` line is a program number, an axis word
         without a decimal point is refused: on a control without decimal-point input it counts least
-        increments) or ``grbl``.
+        increments) or ``grbl`` (a line of a ``$`` system command or of real-time ``? ~ !`` characters is
+        grbl's: homing, jogging and an offset reset are read past, the rest moves nothing).
     """
 
     chord_tolerance: float = 0.001

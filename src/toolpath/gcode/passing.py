@@ -26,6 +26,16 @@ _PROBES = {31, 38.2, 38.3, 38.4, 38.5}  # G31: Mach3 / Mach4 (and Fanuc's skip) 
 _PROGRAM_NUMBER = re.compile(r"\s*[oO]\s*\d+\s*$")
 _INTEGER_AXIS = re.compile(r"([XYZIJKRxyzijkr])\s*([+-]?\s*0*[1-9]\d*)(?![\d.])")  # X0 is 0 either way
 _DECIMAL_LETTERS = "XYZIJKR"
+# grbl's system commands ($$ $# $G $I $N $C $X $H $J= $RST= $SLP, $n=value settings) and its real-time
+# characters on a line of their own; LinuxCNC's "$2" (a spindle number) is not one of them
+_GRBL_COMMAND = re.compile(r"\s*(\$(?:[A-Za-z$#].*|\d+\s*=.*|)|[?~!]+)\s*$")
+_GRBL_MOVING = {"$H": "homing", "$J": "jogging", "$RST": "a reset of the stored offsets"}
+
+
+def grbl_command(text: str) -> str | None:
+    """The grbl system or real-time command a line (comments removed) is, or None."""
+    match = _GRBL_COMMAND.match(text)
+    return match.group(1).strip() if match else None
 
 
 def integer_word_problem(letter: str, text: str) -> str:
@@ -83,6 +93,23 @@ class PassThrough:
             raise self.fail(lineno, f"{body.strip()} alone is a Fanuc / Haas program number, which LinuxCNC "
                                     "refuses (an O-word needs sub, call, if, while...): pass --dialect fanuc")
         self.stop_following(lineno, "O-word control flow")
+
+    def grbl_line(self, command: str, lineno: int) -> None:
+        """A grbl system command (``$$``, ``$H``, ``$J=...``) or real-time character line: under ``--dialect
+        grbl`` a report, setting or unlock moves nothing; homing, jogging and an offset reset leave the
+        position to the machine (read past, X Y unknown).  Other controls refuse the line."""
+        if self.opt.dialect != "grbl":
+            raise self.fail(lineno, f"{command[:20]} is a grbl system command, which LinuxCNC and Fanuc controls "
+                                    "refuse: pass --dialect grbl")
+        upper = command.upper()
+        prefix = next((p for p in _GRBL_MOVING if upper.startswith(p)), None)
+        if prefix is None:
+            return
+        moving = _GRBL_MOVING[prefix]
+        if not self.opt.pass_through:
+            raise self.fail(lineno, f"grbl {command[:20]} ({moving}) is not supported: the position after it is "
+                                    "the machine's")
+        self._past(lineno, f"grbl {prefix} ({moving})", XY)
 
     def check_decimal_points(self, words, lineno: int) -> None:  # noqa: ANN001 - the line's words
         """``--dialect fanuc``: an axis or arc word written without a decimal point is refused."""

@@ -19,7 +19,7 @@ import numpy as np
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.interpreter import Interpreter, ReaderOptions
 from toolpath.gcode.lexer import tokenize
-from toolpath.gcode.passing import integer_word_in
+from toolpath.gcode.passing import grbl_command, integer_word_in
 from toolpath.gcode.program import Lines, Program, StateTable
 from toolpath.gcode.scanner import scan
 from toolpath.gcode.text import MAX_LINE_LENGTH
@@ -77,7 +77,11 @@ class Reading:
                     raise GCodeError(self.source, lineno, f"the line is longer than {MAX_LINE_LENGTH} characters")
                 if lineno == 1 and body.startswith("\ufeff"):  # a UTF-8 BOM
                     body = body[1:]
-                if self.options.pass_through and _O_WORD.match(body) and not interp.nurbs:
+                grbl = body.lstrip().startswith(("$", "?", "~", "!")) and grbl_command(_COMMENTS.sub(" ", body))
+                if grbl:
+                    interp.opaque = False
+                    interp.grbl_line(grbl, lineno)
+                elif self.options.pass_through and _O_WORD.match(body) and not interp.nurbs:
                     interp.opaque = False
                     interp.o_line(_COMMENTS.sub(" ", body), lineno)
                 else:

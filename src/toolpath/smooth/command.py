@@ -80,7 +80,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--dialect", choices=("linuxcnc", "fanuc", "grbl"), default="linuxcnc",
                    help="how the control reads what dialects disagree on (default linuxcnc): fanuc (Fanuc, Haas) "
                         "takes an O1234 line as a program number and refuses axis words without a decimal point "
-                        "(its X4 counts least increments)")
+                        "(its X4 counts least increments); grbl reads its $ system commands and ? ~ ! lines")
     p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
     p.add_argument("--arcs", action="store_true",
                    help="also replace runs of G1 lines by one G2/G3 where an arc lies within the tolerance")
