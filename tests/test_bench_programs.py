@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from toolpath.bench.programs import STEP, Unfollowed, check, feed_paths, measure, two_sided
+from toolpath.bench.programs import _changed_distance as check_distance
 
 
 def test_a_square_is_its_four_corners_and_a_rapid_ends_the_run():
@@ -64,3 +65,10 @@ def test_a_folder_end_to_end(tmp_path):
     checked = result["programs"]["rough.nc"]["check"]
     assert checked["checked"] and checked["runs_match"] and 0 < checked["largest_distance_mm"] <= 0.01 + STEP / 2
     assert json.dumps(result)  # what the benchmark writes
+
+
+def test_only_the_changed_stretches_are_sampled_and_the_figure_is_kept():
+    run = np.column_stack([np.arange(0.0, 100000.0, 1.0), np.zeros(100000)])  # 100 m: sampled whole, 1e8 points
+    moved = run.copy()
+    moved[500, 1], moved[90000, 1] = 0.003, -0.007
+    assert check_distance(run, moved) == pytest.approx(0.007, abs=STEP / 2)
