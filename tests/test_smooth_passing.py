@@ -43,6 +43,8 @@ CASES = {  # construct lines, the reason a window holding it gives, whether the 
     "probing": (["G38.2 Z-5 F50", "G0 Z1"], "probing", True),
     "mach probing": (["G31 Z-5 F50", "G0 Z1"], "G31 probing", True),  # Mach3 / Mach4, pcb2gcode's autoleveller
     "homing": (["G28.2 X0 Y0"], "homing", True),
+    "work offset set": (["G10 L20 P0 X0 Y0"], "G10 L20 (work offsets set)", True),
+    "tool table set": (["G10 L1 P1 Z-2.5 R1.5"], "G10 L1 (tool table set)", True),
     "stored home unknown": (["G28 X20 Y0"], "never stored", True),
     "machine coordinates": (["G53 G0 Z0"], "G53", True),
     "xz full circle": (["G18 G2 I0.5 K0", "G17"], "XZ plane", True),

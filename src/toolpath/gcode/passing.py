@@ -1,6 +1,6 @@
 """What the reader reads past without following it (``ReaderOptions.pass_through``, ``toolpath smooth``).
 
-A controller runs many things the smoothing has no business changing: arcs of the XZ / YZ planes
+A controller runs many things the smoothing has no business changing: G10 offset tables, arcs of the XZ / YZ planes
 (Fusion 360's lead-ins), G5 splines, canned cycles, cutter compensation, probing, homing, moves in
 machine coordinates, O-word subroutines and loops, M98 / M99.  Refusing the whole program for one of
 them leaves a machinist with nothing; following them would take the controller's own state (tool
@@ -121,7 +121,7 @@ class PassThrough:
         """How the pass-through reads G ``code``: ``motion`` (a canned cycle), ``other`` or None (not its)."""
         if code == major and major in CYCLES:
             return "motion"
-        if code in (7, 18, 19, 41, 42, 41.1, 42.1, 53, 5, 5.1, 28.2, 28.3) or code in _PROBES:
+        if code in (7, 10, 18, 19, 41, 42, 41.1, 42.1, 53, 5, 5.1, 28.2, 28.3) or code in _PROBES:
             return "other"
         return None
 
@@ -142,6 +142,11 @@ class PassThrough:
             if motion is not None:
                 self.motion = motion
             self._past(lineno, f"polar coordinates ({' '.join(polar)})", XY)
+            return True
+        if 10 in others:  # its axis words are offsets, not a move; L2 / L20 move the work coordinates themselves
+            table = values.get("L", 0) in (2, 20)
+            self._past(lineno, f"G10 L{values.get('L', 0):g} ({'work offsets' if table else 'tool table'} set)",
+                       XY if table else ())
             return True
         if probe := next((c for c in others if c in _PROBES), None):
             self._past(lineno, f"G{probe:g} probing", axes or "XYZ")
