@@ -127,6 +127,14 @@ def test_linuxcnc_refuses_grbl_commands_but_reads_its_own_spindle_word(tmp_path,
     assert accepted or "p.nc:3:" in (err := capsys.readouterr().err) and "pass --dialect grbl" in err
 
 
+def test_a_dollar_directive_grbl_does_not_know_is_not_taken_for_a_grbl_command(tmp_path, capsys):
+    source = tmp_path / "p.nc"  # a CAM editor's directive, which grbl answers with an error too
+    source.write_text("G21 G90\n$AddRegPart 1 X2.925 Y2.005\nG1 X1. Y0. F300.\nM30\n")
+    assert main([str(source), "-o", str(tmp_path / "out.nc"), "--dialect", "grbl"]) == 1
+    err = capsys.readouterr().err
+    assert "p.nc:2:" in err and "--dialect grbl" not in err
+
+
 @pytest.mark.parametrize("name", ["canned cycle", "cutter compensation", "probing", "homing"])
 def test_a_window_holding_such_a_line_is_kept_with_its_reason(tmp_path, name):
     construct, reason, _ = CASES[name]

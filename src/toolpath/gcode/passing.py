@@ -26,9 +26,11 @@ _PROBES = {31, 38.2, 38.3, 38.4, 38.5}  # G31: Mach3 / Mach4 (and Fanuc's skip) 
 _PROGRAM_NUMBER = re.compile(r"\s*[oO]\s*\d+\s*$")
 _INTEGER_AXIS = re.compile(r"([XYZIJKRxyzijkr])\s*([+-]?\s*0*[1-9]\d*)(?![\d.])")  # X0 is 0 either way
 _DECIMAL_LETTERS = "XYZIJKR"
-# grbl's system commands ($$ $# $G $I $N $C $X $H $J= $RST= $SLP, $n=value settings) and its real-time
-# characters on a line of their own; LinuxCNC's "$2" (a spindle number) is not one of them
-_GRBL_COMMAND = re.compile(r"\s*(\$(?:[A-Za-z$#].*|\d+\s*=.*|)|[?~!]+)\s*$")
+# grbl 1.1's system commands ($ help, $$ $# $G $I $N $C $X $SLP reports and modes, $n=value settings,
+# $Nn=line start-up blocks, $H homing, $J= jogging, $RST= resets) and its real-time characters on a line of
+# their own; LinuxCNC's "$2" (a spindle number) and other tools' "$Name" directives are not among them
+_GRBL_COMMAND = re.compile(r"\s*(\$(?:\$|#|G|C|X|SLP|I(?:=.*)?|N(?:\d+\s*=.*)?|H[XYZABC]*|J=.*|RST=[$#*]"
+                           r"|\d+\s*=\s*[-+]?[\d.]+)?|[?~!]+)\s*$", re.IGNORECASE)
 _GRBL_MOVING = {"$H": "homing", "$J": "jogging", "$RST": "a reset of the stored offsets"}
 
 
