@@ -6,6 +6,7 @@ their reason, and smoothing resumes where the position is known again (never aft
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import numpy as np
@@ -133,6 +134,22 @@ def test_a_dollar_directive_grbl_does_not_know_is_not_taken_for_a_grbl_command(t
     assert main([str(source), "-o", str(tmp_path / "out.nc"), "--dialect", "grbl"]) == 1
     err = capsys.readouterr().err
     assert "p.nc:2:" in err and "--dialect grbl" not in err
+
+
+def test_integer_words_as_whole_units_in_the_fanuc_dialect_when_asked(tmp_path, capsys):
+    text, a, _ = program(["G1 X17 Y0"])  # an integer word mid-program, on a control reading it as 17 mm
+    source = tmp_path / "p.nc"
+    source.write_text("O0001\n" + text)
+    out = tmp_path / "out.nc"
+    assert main([str(source), "-o", str(out), "--dialect", "fanuc", "--method", "mean"]) == 1
+    assert "pass --whole-integer-words" in capsys.readouterr().err
+    assert main([str(source), "-o", str(out), "--dialect", "fanuc", "--whole-integer-words", "--method", "mean"]) == 0
+    before, after = source.read_text().splitlines(), out.read_text().splitlines()
+    moved = re.fullmatch(r"G1 X(\d+\.\d+) Y(-?\d+\.\d+)", after[a.stop + 1])  # written with its decimal points
+    assert moved and math.dist((float(moved[1]), float(moved[2])), (17.0, 0.0)) <= 0.01
+    assert _changed(before[1:], after[1:], a) > 0
+    options = ReaderOptions(pass_through=True, dialect="fanuc", whole_integer_words=True)
+    assert read_text(source.read_text(), options=options).points[:, 0].max() == pytest.approx(45.9)
 
 
 @pytest.mark.parametrize("name", ["canned cycle", "cutter compensation", "probing", "homing"])

@@ -160,7 +160,7 @@ class Interpreter(NurbsMotion, PassThrough):
                 raise self.fail(lineno, f"word {w.letter} appears twice on one line")
             seen.add(w.letter)
         words = list(block.words)
-        if self.opt.dialect == "fanuc":
+        if self.opt.dialect == "fanuc" and not self.opt.whole_integer_words:
             self.check_decimal_points(words, lineno)
         values = {w.letter: w.value for w in words if w.letter not in "GM"}
         motion, others = self._g_codes(words, lineno)

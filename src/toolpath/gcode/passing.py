@@ -43,7 +43,7 @@ def grbl_command(text: str) -> str | None:
 def integer_word_problem(letter: str, text: str) -> str:
     return (f"{letter}{text}: an axis word without a decimal point, which a Fanuc / Haas control without "
             f"decimal-point input reads as {text.replace(' ', '')} least increments, not {text.replace(' ', '')} "
-            f"units: write {letter}{text}. (or pass --dialect linuxcnc if this control reads it as whole units)")
+            f"units: write {letter}{text}. (or pass --whole-integer-words if this control reads it as whole units)")
 
 
 def integer_word_in(text: str) -> tuple[int, str] | None:

@@ -124,8 +124,8 @@ class Reading:
                     states.fill(first + 1, count + 1, first)
                     break
             if first < stop and plain[first] and not (interp.ended or interp.stopped):
-                if self.options.dialect == "fanuc" and (found := integer_word_in(
-                        text[lines.starts[first]:lines.starts[stop]])) is not None:
+                increments = self.options.dialect == "fanuc" and not self.options.whole_integer_words
+                if increments and (found := integer_word_in(text[lines.starts[first]:lines.starts[stop]])) is not None:
                     raise GCodeError(self.source, base + first + found[0] + 1, found[1])
                 interp.run_plain(lines, first, stop, states)
             elif first < stop:

@@ -81,6 +81,9 @@ def parser() -> argparse.ArgumentParser:
                    help="how the control reads what dialects disagree on (default linuxcnc): fanuc (Fanuc, Haas) "
                         "takes an O1234 line as a program number and refuses axis words without a decimal point "
                         "(its X4 counts least increments); grbl reads its $ system commands and ? ~ ! lines")
+    p.add_argument("--whole-integer-words", action="store_true",
+                   help="with --dialect fanuc: an axis word without a decimal point (X4) is whole units, as on a "
+                        "control set to calculator-type decimal input or Mach3, instead of refused")
     p.add_argument("--seed", type=int, default=0, help="seed of NACOA's random search (same seed, same output)")
     p.add_argument("--arcs", action="store_true",
                    help="also replace runs of G1 lines by one G2/G3 where an arc lies within the tolerance")
@@ -286,7 +289,8 @@ def run(args: argparse.Namespace) -> dict:
             units = None
             # what the tool does not smooth (other planes' arcs, cycles, compensation, probing, O-words) is
             # read past and copied through as written (toolpath.gcode.passing)
-            reading = ReaderOptions(pass_through=True, dialect=args.dialect)
+            reading = ReaderOptions(pass_through=True, dialect=args.dialect,
+                                    whole_integer_words=args.whole_integer_words)
             for part in smooth_parts(args.input, predict, options, reading, progress=_progress, units=args.units):
                 units = part.program.units
                 if args.arcs:
