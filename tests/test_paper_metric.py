@@ -119,3 +119,52 @@ def test_a_mode_capped_per_category_runs_on_the_first_windows_of_each_draw():
     assert {w for m, w in runs if m == "tube"} == {10, 11, 12, 20, 21}
     with pytest.raises(ValueError, match="per_category_by_mode"):
         plan(chosen, {**ocfg, "sample": {"per_category_by_mode": {"bound": 2}}})
+
+
+class _Serial:
+    """The one method of an executor :func:`study_smoothers` uses, in this process."""
+
+    @staticmethod
+    def map(function, cells, chunksize=1):
+        return map(function, cells)
+
+
+def test_the_smoothers_settings_are_the_lowest_mean_fitness_per_mode():
+    import numpy as np
+
+    from toolpath.smoothing.methods import smooth
+    from toolpath.smoothing.runs import settings_by_mode, smoother_grid, study_smoothers
+
+    t = np.linspace(0.0, 1.0, 30)
+    zigzag = np.column_stack([10.0 * t, 0.04 * (-1.0) ** np.arange(30)])  # noise 0.08 mm peak to peak
+    zigzag[0, 1] = zigzag[-1, 1] = 0.0
+    grid = {"mean_filter": {"width": [3, 5], "passes": [1, 4]}, "bezier": {"degree": [2, 5]}}
+    ocfg = {"modes": ["none", "tube"], "smoother_study": grid, "tolerance": 0.05, "penalty_weight": 10.0,
+            "mean_filter": {"width": 5, "passes": 3}, "bezier": {"degree": 5}}
+    study = study_smoothers(_Serial(), [zigzag], ocfg)
+    assert study["windows"] == 1 and set(study["modes"]) == {"none", "tube"}
+    by_mode = settings_by_mode(ocfg, study)
+    for mode, node in study["modes"].items():
+        for method in ("mean_filter", "bezier"):
+            fitness = node[method]["mean_fitness"]
+            best = node[method]["settings"][int(np.argmin(fitness))]
+            assert node[method]["chosen"] == best == by_mode[mode][method]
+            # the study's figure is what the stage's run with that setting reaches
+            assert smooth(zigzag, method, by_mode[mode], mode, 0, check=False).objective == min(fitness)
+    # unbounded, the heaviest filter flattens the zigzag most; its figures differ, so the choice is real
+    assert study["modes"]["none"]["mean_filter"]["chosen"] == {"width": 5, "passes": 4}
+    assert len(set(study["modes"]["none"]["mean_filter"]["mean_fitness"])) == 4
+    assert [m for m, _ in smoother_grid(grid)] == ["mean_filter"] * 4 + ["bezier"] * 2
+    with pytest.raises(ValueError, match="must be odd"):
+        smoother_grid({**grid, "mean_filter": {"width": [4], "passes": [1]}})
+
+
+def test_the_report_names_the_smoothers_settings_it_used():
+    from toolpath.reports import smoothing_tables
+
+    chosen = {"mean_filter": {"chosen": {"width": 3, "passes": 2}}, "bezier": {"chosen": {"degree": 12}}}
+    notes = smoothing_tables.smoother_notes({"gear": {"smoother_study": {"windows": 24, "modes": {"tube": chosen}}},
+                                             "maple_leaf": {}})
+    assert notes == ["gear: the smoothers' settings, chosen per mode as NACOA's count is (lowest mean Fitness on 24 "
+                     "validation windows of categories 2-4): bound (tube): mean filter width 3 x 2 pass(es), "
+                     "Bezier degree 12."]

@@ -237,4 +237,21 @@ def study_table(metrics: Mapping[str, Mapping]) -> Table:
         if capped:
             table.notes.append(f"On {', '.join(capped)} the largest count tried was chosen: Fitness was still falling, "
                                "so NACOA is not converged there and more generations would reduce more, at their cost.")
+    table.notes += smoother_notes(metrics)
     return table
+
+
+def smoother_notes(metrics: Mapping[str, Mapping]) -> list[str]:
+    """The mean filter's and Bezier's settings the optimize stage chose per shape and fidelity mode."""
+    notes = []
+    for shape, node in metrics.items():
+        if "smoother_study" not in node:
+            continue
+        study = node["smoother_study"]
+        chosen = "; ".join(
+            f"{MODE_LABEL.get(mode, mode)}: mean filter width {m['mean_filter']['chosen']['width']} x "
+            f"{m['mean_filter']['chosen']['passes']} pass(es), Bezier degree {m['bezier']['chosen']['degree']}"
+            for mode, m in study["modes"].items())
+        notes.append(f"{shape}: the smoothers' settings, chosen per mode as NACOA's count is (lowest mean Fitness on "
+                     f"{study['windows']} validation windows of categories 2-4): {chosen}.")
+    return notes

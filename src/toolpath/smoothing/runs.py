@@ -118,8 +118,52 @@ def choose_generations(counts: list[int], fitness: np.ndarray, within_pct: float
             "within_pct": within_pct, "chosen": int(chosen), "windows": int(fitness.shape[1])}
 
 
+def smoother_grid(grid: dict) -> list[tuple[str, dict]]:
+    """Every (smoother, its settings) of ``smoother_study``: the mean filter's width x passes and
+    Bezier's degree, in the order the study lists them (a tie goes to the first)."""
+    values = [*grid["mean_filter"]["width"], *grid["mean_filter"]["passes"], *grid["bezier"]["degree"]]
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in values):
+        raise ValueError("optimize.smoother_study lists whole numbers >= 1 only")
+    if even := [w for w in grid["mean_filter"]["width"] if w % 2 == 0]:
+        raise ValueError(f"optimize.smoother_study.mean_filter.width {even} must be odd (a centred mean)")
+    means = [("mean_filter", {"width": int(w), "passes": int(p)})
+             for w in grid["mean_filter"]["width"] for p in grid["mean_filter"]["passes"]]
+    return means + [("bezier", {"degree": int(d)}) for d in grid["bezier"]["degree"]]
+
+
+def run_smoother_study_task(job: tuple[np.ndarray, str, dict, str, dict]) -> float:
+    """The objective (Fitness, certified inside the bound) one smoother setting reaches on one window."""
+    window, method, values, mode, ocfg = job
+    return smooth(window, method, {**ocfg, method: values}, mode, seed=0, check=False).objective
+
+
+def study_smoothers(pool, windows: list[np.ndarray], ocfg: dict) -> dict:
+    """The smoothers' settings per fidelity mode of ``ocfg["modes"]``: for each of the mean filter and
+    Bezier, the setting of :func:`smoother_grid` with the lowest mean Fitness on ``windows``
+    (validation windows, never test), as NACOA's generation count is chosen; ``pool`` maps the cells."""
+    grid = smoother_grid(ocfg["smoother_study"])
+    cells = [(w, method, values, mode, ocfg) for mode in ocfg["modes"] for method, values in grid for w in windows]
+    fitness = np.reshape(list(pool.map(run_smoother_study_task, cells, chunksize=16)),
+                         (len(ocfg["modes"]), len(grid), len(windows))).mean(axis=-1)
+    study: dict = {"windows": len(windows), "modes": {}}
+    for mode, means in zip(ocfg["modes"], fitness, strict=True):
+        node = study["modes"][mode] = {}
+        for method in ("mean_filter", "bezier"):
+            rows = [k for k, (m, _) in enumerate(grid) if m == method]
+            best = min(rows, key=lambda k: means[k])  # the first of equals: the grid's order
+            node[method] = {"settings": [grid[k][1] for k in rows], "mean_fitness": [float(means[k]) for k in rows],
+                            "chosen": grid[best][1]}
+    return study
+
+
+def settings_by_mode(ocfg: dict, study: dict) -> dict[str, dict]:
+    """``ocfg`` for each fidelity mode, its smoothers set to the study's choice for that mode."""
+    return {mode: {**ocfg, **{m: node[m]["chosen"] for m in ("mean_filter", "bezier")}}
+            for mode, node in study["modes"].items()}
+
+
 def summarise_run(rows: list[dict], chosen: list[tuple[int, int, bool]], tasks: list[dict], ocfg: dict, study: dict,
-                  seed: int) -> dict:
+                  seed: int, smoother_study: dict | None = None) -> dict:
     """The stage's deterministic summary: :func:`summarise`'s all-category means, the paper's metric on
     categories 2-4 with intervals, Table 6's paired differences (NACOA at the matched budget minus each
     baseline, on the baseline windows), the convergence study and the sample; ``seed`` draws the
@@ -131,6 +175,8 @@ def summarise_run(rows: list[dict], chosen: list[tuple[int, int, bool]], tasks: 
     summary["head_to_head_paired"] = paired_differences([r for r in rows if r["baseline_window"]], "nacoa_matched",
                                                         seed)
     summary["convergence_study"] = study
+    if smoother_study is not None:
+        summary["smoother_study"] = smoother_study
     summary["sample"] = {"windows": len(chosen), "runs": len(tasks),
                          "per_category": {str(c): sum(1 for _, k, _ in chosen if k == c) for c in categories}}
     return summary

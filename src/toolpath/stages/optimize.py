@@ -2,7 +2,8 @@
 
 Run: python -m toolpath.stages.optimize --shape gear
 
-First NACOA's convergence study on validation windows chooses its generation count.  Writes the
+First studies on validation windows choose NACOA's generation count and, per fidelity mode, the mean
+filter's and Bezier's settings.  Writes the
 per-window rows (one per window, fidelity mode, method and encoding; ``seconds`` is the only column
 that varies between runs), the summary (deterministic: the paper's metric on categories 2-4 with
 intervals, the old all-category means, per category, dispatch, the study), Table 6's timing, the
@@ -18,17 +19,8 @@ import numpy as np
 
 from toolpath.pipeline import artifacts, config, settings, tracking
 from toolpath.pipeline.workers import grouped_metrics, progress, shape_arg
+from toolpath.smoothing import runs
 from toolpath.smoothing.evaluate import ROW_FIELDS, timing
-from toolpath.smoothing.runs import (
-    choose_generations,
-    convergence_curves,
-    plan,
-    run_study_task,
-    run_task,
-    sample_windows,
-    study_windows,
-    summarise_run,
-)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -37,41 +29,45 @@ def main(argv: list[str] | None = None) -> None:
     ocfg, layout = settings.smoothing(cfg), settings.layout(cfg)
     data = artifacts.load_windows(layout.windows_file(args.shape), args.shape)
     # the seed names stay "optimise" (the stage's former name): renaming them would change every draw
-    chosen = sample_windows(data.label, data.split, ocfg["sample"], config.seed_for(cfg.seed, "optimise", args.shape))
+    seed = lambda *names: config.seed_for(cfg.seed, "optimise", args.shape, *names)  # noqa: E731
+    chosen = runs.sample_windows(data.label, data.split, ocfg["sample"], seed())
     try:
-        tasks = plan(chosen, ocfg)
+        tasks = runs.plan(chosen, ocfg)
+        runs.smoother_grid(ocfg["smoother_study"])
     except ValueError as exc:
         raise SystemExit(f"params.yaml: {exc}") from None
     windows = data.windows.astype(np.float64)
     study = ocfg["convergence_study"]
-    studied = study_windows(data.label, data.split, study, config.seed_for(cfg.seed, "optimise", args.shape, "study"))
+    studied = runs.study_windows(data.label, data.split, study, seed("study"))
+    tuned_on = runs.study_windows(data.label, data.split, ocfg["smoother_study"], seed("smoother_study"))
     params = {**config.flat(ocfg, "optimize"), "windows": len(chosen), "runs": len(tasks)}
     with tracking.stage_run(f"optimize@{args.shape}", params, shape=args.shape):
         import mlflow
 
         # spawn, not fork: the parent holds MLflow's threads; results do not depend on the worker count
         with ProcessPoolExecutor(ocfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
-            cells = [(windows[i], g, ocfg, config.seed_for(cfg.seed, "optimise", args.shape, "study", str(i)))
-                     for g in study["generations"] for i in studied]
-            fits = [f.result() for f in progress([pool.submit(run_study_task, c) for c in cells],
+            cells = [(windows[i], g, ocfg, seed("study", str(i))) for g in study["generations"] for i in studied]
+            fits = [f.result() for f in progress([pool.submit(runs.run_study_task, c) for c in cells],
                                                   f"NACOA study {args.shape}")]
-            chosen_study = choose_generations(list(study["generations"]),
-                                              np.reshape(fits, (len(study["generations"]), -1)), study["within_pct"])
+            counts = list(study["generations"])
+            chosen_study = runs.choose_generations(counts, np.reshape(fits, (len(counts), -1)), study["within_pct"])
             ocfg = {**ocfg, "nacoa": {**ocfg["nacoa"], "generations": chosen_study["chosen"]}}
+            smoothers = runs.study_smoothers(pool, [windows[i] for i in tuned_on], ocfg)
+            by_mode = runs.settings_by_mode(ocfg, smoothers)
             # one seed per window and mode, shared by every method: the same start and the same draws
-            jobs = [(t, windows[t["window"]], ocfg, config.seed_for(cfg.seed, "optimise", args.shape,
-                                                                     str(t["window"]), t["mode"])) for t in tasks]
+            jobs = [(t, windows[t["window"]], by_mode[t["mode"]], seed(str(t["window"]), t["mode"])) for t in tasks]
             # results in submission order, so the output does not depend on which worker finished first
-            futures = [pool.submit(run_task, job) for job in jobs]
+            futures = [pool.submit(runs.run_task, job) for job in jobs]
             outputs = [future.result() for future in progress(futures, f"optimize {args.shape}")]
-        mlflow.log_param("nacoa_generations_chosen", chosen_study["chosen"])
+        mlflow.log_params({"nacoa_generations_chosen": chosen_study["chosen"], **config.flat(
+            {m: {k: v["chosen"] for k, v in node.items()} for m, node in smoothers["modes"].items()}, "chosen")})
         rows = [o[0] for o in outputs]
-        bootstrap_seed = config.seed_for(cfg.seed, "optimise", args.shape, ocfg["sample"]["bootstrap_seed_name"])
-        summary = summarise_run(rows, chosen, tasks, ocfg, chosen_study, bootstrap_seed)
+        summary = runs.summarise_run(rows, chosen, tasks, ocfg, chosen_study,
+                                     seed(ocfg["sample"]["bootstrap_seed_name"]), smoothers)
         artifacts.write_rows(rows, ROW_FIELDS, layout.optimize_rows(args.shape))
         artifacts.write_json(summary, layout.optimize_summary(args.shape))
         artifacts.write_json(timing(rows), layout.optimize_timing(args.shape))
-        curves = convergence_curves(tasks, outputs)
+        curves = runs.convergence_curves(tasks, outputs)
         artifacts.write_rows([{k: v[i] for k, v in curves.items()} for i in range(len(curves["budget_fraction"]))],
                              list(curves), layout.optimize_curves(args.shape))
         # float64: float32 rounding of coordinates near 100 mm (~4 um) would break the tolerance on reload
