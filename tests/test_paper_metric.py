@@ -138,7 +138,7 @@ def test_the_smoothers_settings_are_the_lowest_mean_fitness_per_mode():
     t = np.linspace(0.0, 1.0, 30)
     zigzag = np.column_stack([10.0 * t, 0.04 * (-1.0) ** np.arange(30)])  # noise 0.08 mm peak to peak
     zigzag[0, 1] = zigzag[-1, 1] = 0.0
-    grid = {"mean_filter": {"width": [3, 5], "passes": [1, 4]}, "bezier": {"degree": [2, 5]}}
+    grid = {"windows_per_category": 1, "mean_filter": {"width": [3, 5], "passes": [1, 4]}, "bezier": {"degree": [2, 5]}}
     ocfg = {"modes": ["none", "tube"], "smoother_study": grid, "tolerance": 0.05, "penalty_weight": 10.0,
             "mean_filter": {"width": 5, "passes": 3}, "bezier": {"degree": 5}}
     study = study_smoothers(_Serial(), [zigzag], ocfg)

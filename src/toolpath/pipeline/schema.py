@@ -81,7 +81,6 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "optimize.sample.per_category_by_mode.*": _int(1),
     "optimize.sample.baselines_per_category": _int(0), "optimize.mean_filter.width": _int(1),
     "optimize.mean_filter.passes": _int(1), "optimize.bezier.degree": _int(1, 30),
-    "optimize.smoother_study.windows_per_category": _int(1),
     "optimize.nacoa.population": _int(2), "optimize.nacoa.generations": _int(1),
     "optimize.nacoa.hba_generations": _int(0),
     "qat.epochs": _int(2), "qat.freeze_last": _int(1), "qat.lr_scale": POSITIVE, "qat.workers": _int(1),

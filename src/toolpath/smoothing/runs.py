@@ -121,7 +121,8 @@ def choose_generations(counts: list[int], fitness: np.ndarray, within_pct: float
 def smoother_grid(grid: dict) -> list[tuple[str, dict]]:
     """Every (smoother, its settings) of ``smoother_study``: the mean filter's width x passes and
     Bezier's degree, in the order the study lists them (a tie goes to the first)."""
-    values = [*grid["mean_filter"]["width"], *grid["mean_filter"]["passes"], *grid["bezier"]["degree"]]
+    values = [grid["windows_per_category"], *grid["mean_filter"]["width"], *grid["mean_filter"]["passes"],
+              *grid["bezier"]["degree"]]
     if not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in values):
         raise ValueError("optimize.smoother_study lists whole numbers >= 1 only")
     if even := [w for w in grid["mean_filter"]["width"] if w % 2 == 0]:
