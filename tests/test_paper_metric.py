@@ -162,9 +162,15 @@ def test_the_smoothers_settings_are_the_lowest_mean_fitness_per_mode():
 def test_the_report_names_the_smoothers_settings_it_used():
     from toolpath.reports import smoothing_tables
 
-    chosen = {"mean_filter": {"chosen": {"width": 3, "passes": 2}}, "bezier": {"chosen": {"degree": 12}}}
+    chosen = {"mean_filter": {"chosen": {"width": 3, "passes": 2}, "settings": [{"width": 3, "passes": 1}, {
+        "width": 3, "passes": 2}, {"width": 5, "passes": 1}]}, "bezier": {"chosen": {"degree": 12}, "settings": [
+        {"degree": 5}, {"degree": 12}, {"degree": 16}]}}
     notes = smoothing_tables.smoother_notes({"gear": {"smoother_study": {"windows": 24, "modes": {"tube": chosen}}},
                                              "maple_leaf": {}})
     assert notes == ["gear: the smoothers' settings, chosen per mode as NACOA's count is (lowest mean Fitness on 24 "
                      "validation windows of categories 2-4): bound (tube): mean filter width 3 x 2 pass(es), "
                      "Bezier degree 12."]
+    chosen["bezier"]["chosen"] = {"degree": 16}
+    edge = smoothing_tables.smoother_notes({"gear": {"smoother_study": {"windows": 24, "modes": {"tube": chosen}}}})
+    assert edge[0].endswith("In bound (tube) a setting at an end of its grid won: a heavier or lighter one might do "
+                            "better still.")

@@ -252,6 +252,10 @@ def smoother_notes(metrics: Mapping[str, Mapping]) -> list[str]:
             f"{MODE_LABEL.get(mode, mode)}: mean filter width {m['mean_filter']['chosen']['width']} x "
             f"{m['mean_filter']['chosen']['passes']} pass(es), Bezier degree {m['bezier']['chosen']['degree']}"
             for mode, m in study["modes"].items())
+        edges = [MODE_LABEL.get(mode, mode) for mode, m in study["modes"].items()
+                 if any(node["chosen"] in (node["settings"][0], node["settings"][-1]) for node in m.values())]
         notes.append(f"{shape}: the smoothers' settings, chosen per mode as NACOA's count is (lowest mean Fitness on "
-                     f"{study['windows']} validation windows of categories 2-4): {chosen}.")
+                     f"{study['windows']} validation windows of categories 2-4): {chosen}."
+                     + (f" In {', '.join(edges)} a setting at an end of its grid won: a heavier or lighter one "
+                        "might do better still." if edges else ""))
     return notes
