@@ -119,6 +119,7 @@ from toolpath.corners.network import (  # noqa: E402
     ResidualMLP,
     fdls_data,
     fit,
+    held_inside,
     predict,
     sdls_data,
     smooth_corner,
@@ -136,6 +137,20 @@ def trained():
     curves = (fit(fdls, *fdls_data(samples), epochs=15, batch=16, lr=0.005, seed=1),
               fit(sdls, *sdls_data(samples), epochs=15, batch=64, lr=0.001, seed=2))
     return samples, fdls, sdls, curves
+
+
+def test_a_target_held_inside_keeps_a_margin_to_every_check(trained):
+    samples = trained[0]
+    sample = max(samples, key=lambda s: evaluate(s.corner, s.points, s.weights, 0.1).delta_2)
+    assert evaluate(sample.corner, sample.points, sample.weights, 0.1).delta_2 == pytest.approx(0.1, rel=1e-6)
+    assert held_inside(sample, 0.1, 0.0, 0.0) is sample  # no margin: PSO's answer as found
+    held = held_inside(sample, 0.1, 0.03, 0.005)
+    checked = evaluate(held.corner, held.points, held.weights, 0.1)
+    assert checked.feasible and checked.delta_2 == pytest.approx(0.097, rel=1e-6)  # C(1/2) at 0.97 delta_max
+    phi = sample.corner.half_opening  # the extra point moved 0.5 % of L along the incoming leg's inward normal
+    moved = held.points[2] - sample.points[2]
+    assert moved == pytest.approx(-0.005 * sample.corner.leg * np.array([-math.cos(phi), math.sin(phi)]))
+    assert held_inside(sample, 0.1, 0.03, 0.005, limit=0.0) is sample  # no curve is flatter than 0: keep PSO's
 
 
 def test_the_paper_network_is_64_layers_with_a_shortcut_every_8():

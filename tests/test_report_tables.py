@@ -153,8 +153,19 @@ def test_corners_table_marks_a_corner_kept_sharp():
 def test_surrogate_and_pso_study_tables_show_their_counts():
     metrics = load("metrics/corner.json")
     metrics["surrogates"]["sources"]["net"] = 17
+    metrics["surrogates"].update(test_corners=100, held_inside=480, train_corners=500,
+                                 margin={"delta": 0.03, "wedge": 0.005})
+    metrics["surrogates"]["literal"] = {**metrics["surrogates"], "sources": {"net": 6, "repaired": 90, "pso": 4,
+                                                                             "infeasible": 0}}
+    for case in metrics["cases"].values():
+        case["methods"]["nurbs_net"]["answers"] = {"net": 2, "repaired": 1}
     table = corner_report.surrogate_table(metrics, {"pso_seconds_per_corner": 0.25})
-    assert table.rows[0][2] == "17" and table.rows[0][7] == "0.250" and table.rows[0][8] == "-"
+    held, literal, cases = table.rows
+    assert held[0].startswith("PSO's answers held inside (480 of 500: C(1/2) at 97 % of delta_max")
+    assert held[3] == "17 (17 %)" and held[8] == "0.250" and held[9] == "-"
+    assert literal[0] == "PSO's answers as found (the paper's)" and literal[3] == "6 (6 %)" and literal[8] == "-"
+    n = len(metrics["cases"])
+    assert cases[1] == f"{3 * n} of the case paths (other paths)" and cases[3] == f"{2 * n} ({200 / 3:.0f} %)"
     metrics["pso_study"]["cheapest_within_enough"] = None
     assert corner_report.pso_study_table(metrics).notes == []  # no size was enough: no claim
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
@@ -103,6 +103,26 @@ def solved_corners(count: int, delta_max: float, seed: int, settings: PsoSetting
     """The PSO solutions of ``count`` drawn corners (those PSO cannot solve under Eq. 7 are left out)."""
     found = (solve(corner, s, delta_max, settings)[0] for corner, s in draw_corners(count, seed, turns, legs))
     return [sample for sample in found if sample is not None]
+
+
+def held_inside(sample: CornerSample, delta_max: float, delta_margin: float, wedge_margin: float,
+                limit: float = math.inf) -> CornerSample:
+    """A training target held inside the checks: PSO's optimum sits on Eq. 7's boundary (C(1/2) at
+    delta_max, the curve grazing the incoming leg), so an answer a network gets right to 2 % misses it
+    about as often as it meets it.  The extra point moved ``wedge_margin`` x L into the corner and the
+    weights re-solved for C(1/2) at (1 - ``delta_margin``) delta_max; PSO's own answer where that moved
+    curve fails a check or is at least ``limit`` sharp (Eq. 7's cur_max)."""
+    if delta_margin == 0 and wedge_margin == 0:
+        return sample
+    corner, phi = sample.corner, sample.corner.half_opening
+    outward = np.array([-math.cos(phi), math.sin(phi)])  # the incoming leg's outward normal
+    points = corner.method2_points(sample.points[2] - wedge_margin * corner.leg * outward)
+    weights = solve_weights(points, (1.0 - delta_margin) * delta_max)
+    if weights is None:
+        return sample
+    found = evaluate(corner, points, weights, delta_max)
+    return replace(sample, points=points, weights=weights) if found.feasible and found.max_curvature < limit \
+        else sample
 
 
 def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, lr: float, seed: int

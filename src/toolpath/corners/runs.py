@@ -38,11 +38,10 @@ def _solve(job: tuple) -> tuple:
 
 
 def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: PoolMap) -> dict:
-    """Solve the drawn corners by PSO (through ``pool_map``), fit FDLS and SDLS on the training part,
-    test on the rest."""
-    import torch
-
-    from toolpath.corners.network import ResidualMLP, draw_corners, fdls_data, fit, sdls_data
+    """Solve the drawn corners by PSO (through ``pool_map``), fit FDLS and SDLS on the training part with
+    its targets held inside the checks by ``dataset.margin`` (:func:`held_inside`), test on the rest;
+    with a margin, networks fitted on PSO's answers as found are tested beside (``literal_test``)."""
+    from toolpath.corners.network import draw_corners, held_inside
 
     data = ccfg["dataset"]
     drawn = draw_corners(data["train"] + data["test"], seed_for(seed, "corner", "dataset"),
@@ -53,15 +52,39 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     if len(train) < 2:
         raise ValueError(f"corner.dataset: PSO solved only {len(train)} training corners; "
                          "draw more or widen corner.pso")
+    margin = data.get("margin") or {"delta": 0.0, "wedge": 0.0}
+    targets = [held_inside(s, settings.delta_max, margin["delta"], margin["wedge"],
+                           surrogate_limit(s.corner, settings.delta_max)) for s in train]
+    nets, curves = _fit(ccfg, targets, seed)
+    held_out = (drawn[data["train"]:], solved[data["train"]:])
+    trained = {"nets": nets, "curves": curves, "test": _test(nets, *held_out, settings), "train_size": len(train),
+               "held_inside": sum(t is not s for t, s in zip(targets, train, strict=True)), "margin": margin,
+               "pso_failures": sum(s is None for s, _ in solved)}
+    if margin["delta"] or margin["wedge"]:  # the paper's way, for the record: what the margin buys
+        trained["literal_test"] = _test(_fit(ccfg, train, seed)[0], *held_out, settings)
+    return trained
+
+
+def _fit(ccfg: dict, samples: list, seed: int) -> tuple[dict, dict]:
+    import torch
+
+    from toolpath.corners.network import ResidualMLP, fdls_data, fit, sdls_data
+
     nets, curves = {}, {}
-    for name, (X, Y) in (("fdls", fdls_data(train)), ("sdls", sdls_data(train))):
+    for name, (X, Y) in (("fdls", fdls_data(samples)), ("sdls", sdls_data(samples))):
         torch.manual_seed(seed_for(seed, "corner", name))
         net = ResidualMLP(X.shape[1], Y.shape[1], **ccfg["net"])
         curves[name] = fit(net, X, Y, ccfg[name]["epochs"], ccfg[name]["batch"], ccfg[name]["lr"],
                            seed_for(seed, "corner", name, "fit"))
         nets[name] = net
+    return nets, curves
+
+
+def _test(nets: dict, drawn: list, solved: list, settings: CornerSettings) -> list[dict]:
+    """Each held-out corner answered by the networks (checked, repaired or sent back to PSO) against
+    PSO's own answer."""
     test = []
-    for (corner, _), (sample, pso_seconds) in zip(drawn[data["train"]:], solved[data["train"]:], strict=True):
+    for (corner, _), (sample, pso_seconds) in zip(drawn, solved, strict=True):
         started = time.perf_counter()
         # as on the case paths: an answer sharper than method 1 at delta_max goes back to PSO
         found, source = surrogate_corner((nets["fdls"], nets["sdls"]), corner, settings.delta_max, settings.pso,
@@ -73,14 +96,17 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
         test.append({"source": source, "feasible": found is not None and found.feasible,
                      "net_curvature": found.max_curvature if found is not None else None,
                      "pso_curvature": pso_curvature, "net_seconds": net_seconds, "pso_seconds": pso_seconds})
-    return {"nets": nets, "curves": curves, "test": test, "train_size": len(train),
-            "pso_failures": sum(s is None for s, _ in solved)}
+    return test
 
 
 def surrogate_record(trained: dict) -> dict:
     """The surrogates' deterministic record for the metrics file."""
-    return {**surrogate_summary(trained["test"]), "train_corners": trained["train_size"],
-            "pso_failures": trained["pso_failures"], "final_loss": {k: v[-1] for k, v in trained["curves"].items()}}
+    record = {**surrogate_summary(trained["test"]), "train_corners": trained["train_size"],
+              "pso_failures": trained["pso_failures"], "final_loss": {k: v[-1] for k, v in trained["curves"].items()},
+              "held_inside": trained["held_inside"], "margin": trained["margin"]}
+    if "literal_test" in trained:
+        record["literal"] = surrogate_summary(trained["literal_test"])
+    return record
 
 
 def surrogate_timing(test: list[dict]) -> dict:

@@ -65,7 +65,8 @@ def main(argv: list[str] | None = None) -> None:
         artifacts.write_json(metrics, layout.corner_metrics)
         artifacts.write_rows(rows, CORNER_FIELDS, layout.corner_rows)
         _write_curves(trained["curves"], layout.corner_curves)
-        artifacts.write_json({**surrogate_timing(trained["test"]), "cases_seconds_per_corner": seconds},
+        literal = {"literal": surrogate_timing(trained["literal_test"])} if "literal_test" in trained else {}
+        artifacts.write_json({**surrogate_timing(trained["test"]), **literal, "cases_seconds_per_corner": seconds},
                              layout.corner_timing)
         for case, rec in cases.items():
             mlflow.log_metric(f"{case}.g01.time_s", rec["g01"]["time"])
