@@ -1,6 +1,6 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs] [--threads N]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube] [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
@@ -14,7 +14,9 @@ reading a G01-dense program and ``toolpath smooth`` end to end, beside gcodepars
 (:mod:`toolpath.bench.gcode`).  Writes ``reports/bench/arcs.json``: ``toolpath smooth --arcs --method none``
 beside ArcWelder where it is given (:mod:`toolpath.bench.arcs`).  With ``--only programs --programs DIR``,
 writes ``reports/bench/programs.json``: ``toolpath smooth`` on every program under DIR, each changed output
-checked by a reader written apart (:mod:`toolpath.bench.programs`).  Prints the tables.
+checked by a reader written apart (:mod:`toolpath.bench.programs`).  With ``--only tube`` (about ten minutes a
+shape), writes ``reports/bench/tube_limit.json``: how far the tube lets any of our methods go on the optimize
+stage's windows (:mod:`toolpath.bench.tube_limit`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -107,12 +109,13 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs"),
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
     parser.add_argument("--generations", type=int, default=100, help="NACOA generations G (paper: unstated)")
     parser.add_argument("--arcwelder", help="ArcWelder's console binary (else $ARCWELDER, $ARCWELDER_SRC)")
+    parser.add_argument("--shapes", nargs="+", help="--only tube: these shapes (default: every shape)")
     parser.add_argument("--programs", type=Path, help="--only programs: a folder of other people's G-code")
     parser.add_argument("--units", choices=("mm", "inch"), help="--only programs: for a program that sets none")
     args = parser.parse_args(argv)
@@ -120,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.programs is None or not args.programs.is_dir():
             parser.error("--only programs needs --programs DIR, a folder of G-code programs")
         return _programs(args.programs, args.units)
+    if args.only == "tube":
+        return _tube(args.shapes or list(config.load().shapes))
     if args.only in (None, "arcs"):
         _arcs(args.arcwelder)
         if args.only == "arcs":
@@ -156,6 +161,28 @@ def main(argv: list[str] | None = None) -> int:
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
     return _runtimes(args.threads, args.repeats) if args.only is None else 0
+
+
+def _tube(shapes: list[str]) -> int:
+    from toolpath.bench.tube_limit import bench_tube_limit
+
+    result = bench_tube_limit(shapes)
+    write_json({"machine": machine(1), **result}, OUT / "tube_limit.json")
+    table = Table(title=f"Tube mode, categories 2-4: the stage's figures beside NACOA at {result['factor']}x the "
+                        f"generations, best of {result['seeds']} seeds (reduction %, mean over windows)")
+    for column in ("shape", "category", "windows", "NACOA (stage)", "NACOA (stronger)", "dispatch (stage)",
+                   "oracle dispatch"):
+        table.add_column(column, justify="right")
+    for shape, node in result["shapes"].items():
+        for category, c in node["per_category"].items():
+            if not c["windows"]:
+                continue
+            table.add_row(shape, category, str(c["windows"]), f"{c['stage_nacoa_pct']:.1f}",
+                          f"{c['stronger_nacoa_pct']:.1f}", f"{c['stage_dispatch_pct']:.1f}",
+                          f"{c['oracle_dispatch_pct']:.1f}")
+    Console().print(table)
+    print(f"wrote {OUT / 'tube_limit.json'}")
+    return 0
 
 
 def _runtimes(threads: int, repeats: int) -> int:
