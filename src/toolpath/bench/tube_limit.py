@@ -13,9 +13,7 @@ Reads the pipeline's outputs (``make repro`` first); never a test figure.
 from __future__ import annotations
 
 import csv
-import multiprocessing
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 
 import numpy as np
@@ -23,6 +21,7 @@ import numpy as np
 from toolpath.geometry.curvature import local_curvature
 from toolpath.geometry.hausdorff import hausdorff
 from toolpath.pipeline import artifacts, config, settings
+from toolpath.pipeline.workers import pool_map
 from toolpath.smoothing.methods import nacoa_settings, problem_from
 from toolpath.smoothing.nacoa import NACOA
 
@@ -55,8 +54,7 @@ def bench_tube_limit(shapes: list[str], factor: int = 3, seeds: int = 3, workers
         began = time.perf_counter()
         jobs = [(windows[w], ocfg, factor * generations,
                  [config.seed_for(cfg.seed, "tube_limit", shape, str(w), str(k)) for k in range(seeds)]) for w in order]
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            stronger = dict(zip(order, pool.map(_stronger, jobs, chunksize=4), strict=True))
+        stronger = dict(zip(order, pool_map(_stronger, jobs, workers, f"tube limit {shape}"), strict=True))
         out["shapes"][shape] = {"generations": factor * generations, "seconds": time.perf_counter() - began,
                                 "per_category": limit_figures(best, category, stronger, ocfg["dispatch"])}
     return out
