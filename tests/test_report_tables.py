@@ -217,3 +217,35 @@ def test_the_training_curves_draw_every_model_on_both_inputs():
     style = {line.get_label(): (line.get_color(), line.get_linestyle()) for line in lines}
     assert style["cnn"][0] == style["cnn_xy"][0] and (style["cnn"][1], style["cnn_xy"][1]) == ("-", "--")
     assert style["mcrl"][0] == style["mcrl_xy"][0] == "tab:red"
+
+
+def test_the_flattest_curve_bounds_the_w_reduction_by_hand():
+    import math
+
+    import pytest
+
+    from toolpath.corners.curve import Corner, method1_at
+    from toolpath.corners.pso import PsoSettings, pso_corner
+    from toolpath.corners.transitions import bezier_transition
+
+    # a square corner: the arc tangent to both legs with its middle 0.1 from the corner has radius
+    # 0.1 / (sqrt 2 - 1), so curvature (sqrt 2 - 1) / 0.1
+    assert corner_report.flattest_curvature(90.0, 0.1) == pytest.approx((math.sqrt(2) - 1) / 0.1, rel=1e-12)
+    assert corner_report.flattest_curvature(0.0, 0.1) == 0.0  # no turn: a straight line
+    # every curve we build on a corner is at least as sharp as that arc
+    for turn in (40.0, 90.0, 125.4):
+        corner = Corner(math.radians(turn), 2.0)
+        flattest = corner_report.flattest_curvature(turn, 0.1)
+        found, _ = pso_corner(corner, 0.1, settings=PsoSettings(particles=24, iterations=20, seed=3))
+        bezier = bezier_transition(corner.turn, 2 * corner.leg, 0.1)
+        for curve in (found, method1_at(corner, 0.1), bezier):
+            assert curve is None or curve.max_curvature >= flattest * (1 - 1e-9)
+    rows = [{"case": "w", "method": "nurbs_pso", "turn_deg": "90", "curvature_method1": "16.568542"},
+            {"case": "w", "method": "nurbs_pso", "turn_deg": "90", "curvature_method1": "nan"},
+            {"case": "w", "method": "bezier", "turn_deg": "90", "curvature_method1": "100"}]
+    assert corner_report.arc_bound(rows, "w", 0.1) == pytest.approx(75.0, abs=1e-4)  # 1 - 4.1421 / 16.5685
+    assert corner_report.arc_bound(rows, "dress", 0.1) is None
+    metrics = load("metrics/corner.json")
+    note = [n for n in corner_report.cases_table(metrics, rows, 0.1).notes if n.startswith("W:")][0]
+    assert note.endswith("No curve can go beyond 75.0 % against method 1 on this path: the circular blend within "
+                         "delta_max is the flattest curve inside a corner that passes within delta_max of it.")

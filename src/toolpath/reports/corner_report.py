@@ -3,8 +3,9 @@ each optimisation method saves, the feed profiles and the surrogates' training c
 
 from __future__ import annotations
 
+import math
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import matplotlib
 
@@ -24,9 +25,10 @@ def _num(value: float | None, fmt: str) -> str:
     return "-" if value is None else f"{value:{fmt}}"
 
 
-def cases_table(metrics: Mapping) -> Table:
+def cases_table(metrics: Mapping, rows: Sequence[Mapping[str, str]] = (), delta_max: float | None = None) -> Table:
     """Per case and method: curvature reduction (mean / worst / best, against the circular blend and
-    against method 1), two-sided error, inside-ness, time, its bounds and the time saved."""
+    against method 1), two-sided error, inside-ness, time, its bounds and the time saved; ``rows`` (the
+    corner rows) give the W note the largest reduction any curve could reach."""
     table = Table("NURBS corner paper, cases 1-3: corner smoothing and machining time, ours (paper)",
                   ["case", "method", "corners (kept sharp)", "reduction vs arc: mean / worst / best %",
                    "reduction vs method 1: mean / worst / best %", "max two-sided error / mm", "all inside",
@@ -64,7 +66,7 @@ def cases_table(metrics: Mapping) -> Table:
         "NURBS + PSO's swarm holds method 1 at delta_max and the dual Bezier as its first best, so it is never "
         "sharper than either; in brackets after its count, the corners where one of them stayed best (method 2 was "
         "not flatter there).")
-    table.notes += _against_paper(metrics)
+    table.notes += _against_paper(metrics, rows, delta_max)
     return table
 
 
@@ -96,8 +98,30 @@ def pso_study_table(metrics: Mapping) -> Table:
     return table
 
 
-def _against_paper(metrics: Mapping) -> list[str]:
-    """Where ours is worse than the paper's figure, say so."""
+def flattest_curvature(turn_deg: float, delta_max: float) -> float:
+    """The curvature of the circular arc tangent to both legs of a corner turning ``turn_deg`` whose
+    middle is ``delta_max`` from the corner: with the legs' opening alpha = 180 deg - turn, the centre
+    on the bisector at d = delta / (1 - sin(alpha / 2)) and radius d sin(alpha / 2), so
+    kappa = (1 - sin(alpha / 2)) / (delta sin(alpha / 2)) (a square corner: (sqrt 2 - 1) / delta)."""
+    half = math.radians(180.0 - turn_deg) / 2.0
+    return (1.0 - math.sin(half)) / (delta_max * math.sin(half))
+
+
+def arc_bound(rows: Sequence[Mapping[str, str]], case: str, delta_max: float) -> float | None:
+    """The largest peak-curvature reduction against method 1 (at delta_max) that any curve could reach on
+    ``case``'s corners, per cent: a curve that leaves and rejoins along the legs and passes within
+    delta_max of the corner is nowhere flatter than :func:`flattest_curvature` (one whose curvature stayed
+    below the arc's would turn on a wider circle and miss the corner by more), so
+    1 - that / method 1 bounds every method's reduction there, whatever room the legs give."""
+    bounds = [100.0 * (1.0 - flattest_curvature(float(r["turn_deg"]), delta_max) / float(r["curvature_method1"]))
+              for r in rows if r["case"] == case and r["method"] == "nurbs_pso"
+              and r["curvature_method1"] not in ("", "nan")]
+    return max(bounds, default=None)
+
+
+def _against_paper(metrics: Mapping, rows: Sequence[Mapping[str, str]] = (), delta_max: float | None = None
+                   ) -> list[str]:
+    """Where ours is worse than the paper's figure, say so (and, for W, how far any curve could go)."""
     notes = []
     w = metrics["cases"].get("w", {}).get("methods", {}).get("nurbs_pso")
     if w and w["max_reduction_pct"] is not None:
@@ -106,7 +130,10 @@ def _against_paper(metrics: Mapping) -> list[str]:
                      f"{_num(w['max_reduction_vs_method1_pct'], '.1f')} % against method 1, "
                      f"{'below' if max(ours, w['max_reduction_vs_method1_pct'] or -1e9) < paper else 'above'} "
                      f"the paper's {paper} % (whose 'before' is not stated); the mean is "
-                     f"{_num(w['mean_reduction_pct'], '.1f')} / {_num(w['mean_reduction_vs_method1_pct'], '.1f')} %.")
+                     f"{_num(w['mean_reduction_pct'], '.1f')} / {_num(w['mean_reduction_vs_method1_pct'], '.1f')} %."
+                     + (f" No curve can go beyond {bound:.1f} % against method 1 on this path: the circular blend "
+                        "within delta_max is the flattest curve inside a corner that passes within delta_max of it."
+                        if delta_max and (bound := arc_bound(rows, "w", delta_max)) is not None else ""))
     dress = metrics["cases"].get("dress", {}).get("methods", {}).get("nurbs_pso")
     if dress:
         for other, key in (("bspline", "dress_saved_vs_ref20_pct"), ("bezier", "dress_saved_vs_ref21_pct")):
