@@ -35,6 +35,11 @@ def test_the_time_block_names_every_family_and_the_total():
                                                  "exit code 255 in stage `report` after 25.0 minutes")
     measured = {**timing, "dvc_seconds": 41.6}  # stage_times counts DVC's work between stages apart
     assert "qat 600 s, DVC's own work between stages 42 s)" in readme.time_block(measured)
+    # a family DVC found up to date is named, not silently missing from the total
+    assert readme.time_block(timing, ("train", "qat")).endswith("`reports/pipeline_time.json`.")
+    assert readme.time_block(timing, ("train", "qat", "classify", "feedrate")).endswith(
+        " `classify` and `feedrate` were up to date (inputs unchanged since the committed results) and did not "
+        "re-run, so they are not in this figure.")
 
 
 def test_a_changed_source_makes_the_block_differ(tmp_path):

@@ -32,8 +32,10 @@ def _k(lines_per_s: float) -> str:
     return f"{lines_per_s / 1e3:.1f} k" if lines_per_s < 1e4 else f"{lines_per_s / 1e3:.0f} k"
 
 
-def time_block(timing: Mapping) -> str:
-    """The default profile's measured time, by stage family, from ``reports/pipeline_time.json``."""
+def time_block(timing: Mapping, stages: tuple[str, ...] = ()) -> str:
+    """The default profile's measured time, by stage family, from ``reports/pipeline_time.json``;
+    ``stages``: every stage family of ``dvc.yaml``, so that families DVC found up to date (and did not
+    re-run: their committed metrics and their inputs unchanged) are named, not silently left out."""
     families = sorted(timing["families"].items(), key=lambda kv: -kv[1])
     total = timing["total_seconds"]
     if timing.get("exit_code", 0):  # a run that stopped is no measure of the whole pipeline: say so
@@ -43,10 +45,18 @@ def time_block(timing: Mapping) -> str:
                 f"{', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}); see "
                 "`reports/pipeline_time.json`.")
     dvc = (f", DVC's own work between stages {timing['dvc_seconds']:.0f} s" if "dvc_seconds" in timing else "")
+    skipped = [name for name in stages if name not in timing["families"]]
+    up_to_date = (f" {_names(skipped)} {'was' if len(skipped) == 1 else 'were'} up to date (inputs unchanged since "
+                  "the committed results) and did not re-run, so they are not in this figure." if skipped else "")
     return (f"The last measured `dvc repro` of the default profile took {total / 60:.1f} minutes ({total:.0f} s; "
             f"by stage family: {', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}{dvc}); "
             "`make repro` adds the install (about 2 minutes on a fresh clone) and writes these seconds per stage to "
-            "`reports/pipeline_time.json`.")
+            f"`reports/pipeline_time.json`.{up_to_date}")
+
+
+def _names(items: list[str]) -> str:
+    quoted = [f"`{item}`" for item in items]
+    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " and " + quoted[-1]
 
 
 def bench_block(bench: Mapping) -> str:
@@ -76,9 +86,17 @@ def bench_block(bench: Mapping) -> str:
 def blocks(root: Path, names: tuple[str, ...] = tuple(SOURCES)) -> dict[str, str]:
     """Each generated block of ``names`` from its source file under ``root``; a missing source raises
     FileNotFoundError."""
-    makers = {"report": lambda text: text, "time": lambda text: time_block(json.loads(text)),
+    makers = {"report": lambda text: text, "time": lambda text: time_block(json.loads(text), _stage_families(root)),
               "bench": lambda text: bench_block(json.loads(text))}
     return {name: makers[name]((root / SOURCES[name][0]).read_text(encoding="utf-8")) for name in names}
+
+
+def _stage_families(root: Path) -> tuple[str, ...]:
+    """The stage names of ``root/dvc.yaml`` (a matrix stage is one family); none without the file."""
+    import yaml
+
+    path = root / "dvc.yaml"
+    return tuple(yaml.safe_load(path.read_text(encoding="utf-8")).get("stages", {})) if path.exists() else ()
 
 
 def main(argv: list[str] | None = None) -> int:
