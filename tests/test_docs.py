@@ -101,3 +101,16 @@ def test_the_test_program_counts_in_methods_md_are_the_label_metrics():
     counts = [json.loads((REPO / f"reports/metrics/label/{s}.json").read_text())["split_programs"]["test"]
               for s in ("gear", "pentagram", "maple_leaf")]
     assert [int(g) for g in found.groups()] == counts
+
+
+def test_the_methods_page_gives_the_surrogates_draw_and_margin_of_the_default_profile():
+    import yaml
+
+    text = " ".join((REPO / "docs" / "methods.md").read_text(encoding="utf-8").split())
+    data = yaml.safe_load((REPO / "params.yaml").read_text(encoding="utf-8"))["corner"]["dataset"]
+    turns, legs, margin = data["turns_deg"], data["legs"], data["margin"]
+    assert f"trained in the stage on {data['train']:,} drawn corners" in text
+    assert f"tested on {data['test']} drawn apart" in text
+    assert f"turns {turns[0]:g}-{turns[1]:g} deg, legs {legs[0]:g}-{legs[1]:g} mm" in text
+    assert f"C(1/2) at {100 * (1 - margin['delta']):g} % of delta_max" in text
+    assert f"the extra point {100 * margin['wedge']:g} % of L into the corner" in text
