@@ -263,3 +263,15 @@ def test_the_swarm_is_scored_as_each_candidate_alone(turn_deg, leg):
         expected = one.max_curvature if one is not None and one.feasible else math.inf
         assert got == pytest.approx(expected, rel=1e-9) if math.isfinite(expected) else math.isinf(got)
     assert np.isfinite(batch).any() and np.isinf(batch).any()  # both outcomes are exercised
+
+
+def test_a_margin_outside_zero_to_one_is_refused_before_any_corner_is_solved():
+    from toolpath.corners.runs import train_surrogates
+
+    def never(*_):
+        raise AssertionError("the PSO dataset was solved before the margin was checked")
+
+    ccfg = {"dataset": {"train": 4, "test": 2, "turns_deg": [30, 150], "legs": [0.5, 3.0],
+                        "margin": {"delta": -0.1, "wedge": 0.0}}}
+    with pytest.raises(ValueError, match=r"corner.dataset.margin .*fractions in \[0, 1\)"):
+        train_surrogates(ccfg, None, 0, never)

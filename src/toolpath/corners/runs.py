@@ -44,6 +44,9 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     from toolpath.corners.network import draw_corners, held_inside
 
     data = ccfg["dataset"]
+    margin = data.get("margin") or {"delta": 0.0, "wedge": 0.0}
+    if not all(0.0 <= float(margin[k]) < 1.0 for k in ("delta", "wedge")):
+        raise ValueError(f"corner.dataset.margin {dict(margin)}: delta and wedge are fractions in [0, 1)")
     drawn = draw_corners(data["train"] + data["test"], seed_for(seed, "corner", "dataset"),
                          tuple(math.radians(t) for t in data["turns_deg"]), tuple(data["legs"]))
     solved = pool_map(_solve, [(corner, s, settings.delta_max, settings.pso) for corner, s in drawn],
@@ -52,7 +55,6 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
     if len(train) < 2:
         raise ValueError(f"corner.dataset: PSO solved only {len(train)} training corners; "
                          "draw more or widen corner.pso")
-    margin = data.get("margin") or {"delta": 0.0, "wedge": 0.0}
     targets = [held_inside(s, settings.delta_max, margin["delta"], margin["wedge"],
                            surrogate_limit(s.corner, settings.delta_max)) for s in train]
     nets, curves = _fit(ccfg, targets, seed)
