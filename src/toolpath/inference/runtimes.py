@@ -24,9 +24,12 @@ PRECISIONS = ("fp32", "int8")
 Runner = Callable[[np.ndarray], np.ndarray]
 
 
-def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: torch.Tensor, path: Path) -> int:
+def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: torch.Tensor, path: Path,
+                translations: dict | None = None) -> int:
     """``model`` (a network, or an exported program such as a QAT INT8 graph) as one ONNX file with a
-    dynamic batch dimension; returns its size in bytes.  The same model gives the same bytes."""
+    dynamic batch dimension; returns its size in bytes.  The same model gives the same bytes.
+    ``translations``: ONNX translations of torch ops beside the exporter's own (e.g.
+    :data:`toolpath.inference.recurrences.TRANSLATIONS`)."""
     import logging
 
     logging.getLogger("torch.onnx").setLevel(logging.ERROR)  # "torchvision is not installed", per export
@@ -40,7 +43,7 @@ def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: 
             program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
         # weights inside the one file (the exporter's default puts them in a .data file beside it)
         torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
-                          external_data=False, verbose=False)
+                          external_data=False, verbose=False, custom_translation_table=translations)
     return path.stat().st_size
 
 

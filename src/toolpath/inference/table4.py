@@ -10,7 +10,9 @@ from pathlib import Path
 import torch
 
 from toolpath.inference.qat import fp32_twin
-from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile
+from toolpath.inference.recurrences import compare_forms, graph_nodes, has_recurrence
+from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile, runner
+from toolpath.inference.timing import timed
 from toolpath.pipeline import artifacts
 
 
@@ -36,7 +38,9 @@ def files_and_profiles(fp32_checkpoint: Path, int8_model: Path, fp32_onnx: Path,
     entry = {"fp32_file_bytes": fp32_checkpoint.stat().st_size,
              "int8_file_bytes": int8_model.stat().st_size if int8_model.is_file() else None,
              "fp32_onnx_file_bytes": fp32_onnx.stat().st_size,
-             "int8_onnx_file_bytes": int8_onnx.stat().st_size if int8_onnx.is_file() else None}
+             "int8_onnx_file_bytes": int8_onnx.stat().st_size if int8_onnx.is_file() else None,
+             "fp32_onnx_nodes": graph_nodes(fp32_onnx)["nodes"],
+             "int8_onnx_nodes": graph_nodes(int8_onnx)["nodes"] if int8_onnx.is_file() else None}
     if not int8_model.is_file():
         entry["int8_missing"] = f"{int8_model} not found (see {qat_metrics})"
     if int8_onnx.is_file():
@@ -54,3 +58,20 @@ def draw_inputs(pool: torch.Tensor, batch: int, large: int | None, seed: int) ->
     if large:
         inputs["large"] = pool[pick[:large]]
     return inputs
+
+
+def recurrent_forms(net: torch.nn.Module, checkpoint: Path, fp32_onnx: Path, float_modules, quantize_conv1d: bool,
+                    batch: torch.Tensor, bcfg: dict) -> dict | None:
+    """A recurrent network's FP32 file with its tanh RNNs as ONNX ``RNN`` nodes beside the shipped,
+    unrolled one (:func:`toolpath.inference.recurrences.compare_forms`, timed like Table 4); None for
+    a network without recurrences."""
+    twin = fp32_twin(net, float_modules, quantize_conv1d)
+    if not has_recurrence(twin):
+        return None
+
+    def time_runners(runners: dict) -> dict[str, float]:
+        seconds = timed(runners, {"batch": batch}, bcfg["repeats"], bcfg["warmup"], warm=batch)
+        return {name: s["batch"] for name, s in seconds.items()}
+
+    return compare_forms(twin, fp32_onnx, fp32_onnx.with_suffix(".native.onnx"), checkpoint, batch, time_runners,
+                         lambda path, runtime: runner(path, runtime, bcfg["threads"]))

@@ -26,7 +26,7 @@ from toolpath.reports import (
 )
 from toolpath.reports.document import Section
 from toolpath.reports.paper import TABLE5_CORRECT
-from toolpath.reports.speed import int8_gains, int8_profile, table4
+from toolpath.reports.speed import int8_gains, int8_profile, recurrent_forms, table4
 from toolpath.reports.tables import (
     INPUT_BLOCKS,
     LOGISTIC,
@@ -219,7 +219,7 @@ class Report:
         inference = read_json(path)
         return self.table([table4(inference, self.shapes),
                            int8_gains(inference, {s: read_json(p) for s, p in qat_paths.items()}),
-                           int8_profile(inference)], "table4_inference")
+                           int8_profile(inference), recurrent_forms(inference)], "table4_inference")
 
     def classification(self) -> str:
         path = self.layout.classify_metrics

@@ -82,6 +82,10 @@ def main(argv: list[str] | None = None) -> None:
             entry |= table4.files_and_profiles(layout.checkpoint(shapes[0], name), layout.int8_model(shapes[0], name),
                                                fp32_onnx, layout.int8_onnx(shapes[0], name),
                                                layout.qat_metrics(shapes[0]), bcfg["threads"], inputs["batch"].numpy())
+            if name in bcfg["recurrent_forms"]:
+                entry["recurrent_forms"] = table4.recurrent_forms(
+                    fp32(shapes[0], name), layout.checkpoint(shapes[0], name), fp32_onnx,
+                    settings.float_modules(cfg, name), bool(qcfg["quantize_conv1d"]), inputs["batch"], bcfg)
             result["models"][name] = entry
         shutil.rmtree(scratch, ignore_errors=True)
         rule = artifacts.load_classifier(layout.checkpoint(shapes[0], "rule"), f"train@{shapes[0]}")
