@@ -78,19 +78,25 @@ def graph_nodes(path: Path) -> dict:
     return {"nodes": sum(ops.values()), "recurrent_nodes": ops["RNN"] + ops["LSTM"] + ops["GRU"]}
 
 
-def compare_forms(net: nn.Module, shipped_file: Path, native_file: Path, checkpoint: Path, batch: Tensor,
+def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: Path, batch: Tensor,
                   time_runners: Callable[[dict], dict], runner: Callable[[Path, str], Callable]) -> dict:
-    """The exported FP32 ``net`` in both forms: the unrolled file (``shipped_file``, already exported) and
-    the recurrences as ONNX nodes (exported here to ``native_file``).  Per form: bytes and their ratio to
-    the ``checkpoint``, nodes, the largest logit difference from the torch network on ``batch``, and
-    windows per second in every runtime timed by ``time_runners({name: fn})`` (one interleaved run, so
-    the ratio is side by side).  ``runner(path, runtime)`` opens a file in a runtime."""
+    """The exported FP32 ``net`` in its forms: ``unrolled``, the shipped file (``shipped_file``, exported
+    already); ``native``, its recurrences as ONNX nodes; and, for a network with a :class:`ContextRNN`,
+    ``unhoisted``, that layer unrolled with the input projection of the fused input at every step (the
+    form before the hoist), the last two exported here into ``folder``.  Per form: bytes and their ratio
+    to the ``checkpoint``, nodes, the largest logit difference from the torch network on ``batch``, windows
+    per second in every runtime, all timed by one ``time_runners({name: fn})`` call (interleaved, so the
+    ratios are side by side), and ``speed_vs_unrolled`` per runtime.  ``runner(path, runtime)`` opens a file."""
     from toolpath.inference.runtimes import RUNTIMES, export_onnx
 
-    export_onnx(native_form(net), batch[:2], native_file, translations=TRANSLATIONS)
+    plain = native_form(net)
+    forms = {"unrolled": shipped_file, "native": folder / f"{shipped_file.stem}.native.onnx"}
+    export_onnx(plain, batch[:2], forms["native"], translations=TRANSLATIONS)
+    if any(isinstance(m, ContextRNN) for m in net.modules()):
+        forms["unhoisted"] = folder / f"{shipped_file.stem}.unhoisted.onnx"
+        export_onnx(plain, batch[:2], forms["unhoisted"])
     with torch.inference_mode():
         reference = net.eval()(batch).numpy()
-    forms = {"unrolled": shipped_file, "native": native_file}
     runners = {f"{form}_{rt}": runner(path, rt) for form, path in forms.items() for rt in RUNTIMES}
     seconds = time_runners({k: (lambda x, run=run: run(x.numpy())) for k, run in runners.items()})
     out: dict = {}
@@ -101,7 +107,6 @@ def compare_forms(net: nn.Module, shipped_file: Path, native_file: Path, checkpo
             logits = runners[f"{form}_{rt}"](batch.numpy())
             row[f"{rt}_max_logit_diff"] = float(np.abs(logits - reference).max())
             row[f"{rt}_windows_per_s"] = len(batch) / seconds[f"{form}_{rt}"]
+            row.setdefault("speed_vs_unrolled", {})[rt] = seconds[f"unrolled_{rt}"] / seconds[f"{form}_{rt}"]
         out[form] = row
-    for rt in RUNTIMES:
-        out[f"{rt}_native_speed_ratio"] = out["native"][f"{rt}_windows_per_s"] / out["unrolled"][f"{rt}_windows_per_s"]
     return out

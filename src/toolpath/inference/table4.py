@@ -73,5 +73,5 @@ def recurrent_forms(net: torch.nn.Module, checkpoint: Path, fp32_onnx: Path, flo
         seconds = timed(runners, {"batch": batch}, bcfg["repeats"], bcfg["warmup"], warm=batch)
         return {name: s["batch"] for name, s in seconds.items()}
 
-    return compare_forms(twin, fp32_onnx, fp32_onnx.with_suffix(".native.onnx"), checkpoint, batch, time_runners,
+    return compare_forms(twin, fp32_onnx, fp32_onnx.parent, checkpoint, batch, time_runners,
                          lambda path, runtime: runner(path, runtime, bcfg["threads"]))
