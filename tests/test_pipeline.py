@@ -13,6 +13,7 @@ from pathlib import Path
 import mlflow
 import numpy as np
 import pytest
+import yaml
 
 from conftest import REPO
 from toolpath.gcode import read_file
@@ -147,6 +148,10 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     # a change confined to the product (toolpath smooth) leaves every stage up to date
     with (work / "src/toolpath/smooth/command.py").open("a") as fh:
         fh.write("\n# a change that only the product sees\n")
+    assert "up to date" in run(dvc + ["status"], work, env)
+    # so does a change of worker counts: no stage declares the resources group
+    config.compose(["+experiment=smoke", "resources.workers.train=3", "resources.workers.corner=2"], root=work)
+    assert yaml.safe_load((work / "params.yaml").read_text())["resources"]["workers"]["train"] == 3
     assert "up to date" in run(dvc + ["status"], work, env)
 
 

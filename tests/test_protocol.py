@@ -66,7 +66,7 @@ def test_the_tuning_never_loads_the_test_split(tmp_path, monkeypatch):
 
     monkeypatch.setattr(artifacts.WindowSet, "part", guarded)
     monkeypatch.chdir(tmp_path)
-    protocol.main(["+experiment=smoke", "train.protocol.models=[mlp_xy,mcrl_xy]", "train.common.workers=1"])
+    protocol.main(["+experiment=smoke", "train.protocol.models=[mlp_xy,mcrl_xy]", "resources.workers.train=1"])
     study = json.loads((tmp_path / "reports/tuning/protocol.json").read_text())
     tried = [(t["model"], t["structure"].get("aux_loss_weight"), t["lr"]) for t in study["trials"]]
     assert tried == [("mlp_xy", None, 1e-3), ("mlp_xy", None, 3e-3), ("mcrl_xy", 0.0, 1e-3), ("mcrl_xy", 0.0, 3e-3),

@@ -23,6 +23,12 @@ def plain(node: Any) -> Any:
         else node
 
 
+def workers(cfg: DictConfig, stage: str) -> int:
+    """Worker processes for ``stage`` (``resources.workers``, a group no stage declares: outputs do not
+    depend on it)."""
+    return int(cfg.resources.workers[stage])
+
+
 def layout(cfg: DictConfig) -> Layout:
     return Layout.from_config(plain(cfg.paths))
 

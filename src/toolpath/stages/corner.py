@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     ccfg, layout = settings.plain(cfg.corner), settings.layout(cfg)
     corner_settings, machine, band = settings.corner(cfg), settings.machine(cfg), settings.feed_band(cfg)
     torch.set_num_threads(ccfg["threads"])
-    mapper = _pool_map(ccfg["workers"])
+    mapper = _pool_map(settings.workers(cfg, "corner"))
     params = {"seed": cfg.seed, **config.flat(ccfg, "corner"), **config.flat(cfg.feedrate, "feedrate")}
     with tracking.stage_run("corner", params):
         import mlflow

@@ -52,12 +52,12 @@ def main(argv: list[str] | None = None) -> None:
         originals = [int(w) for w in np.unique(smoothed.window)]
         polylines = [windows[w] for w in originals] + [p.astype(np.float64) for p in smoothed.points]
         # chunks of plans, a few per worker: the plans are independent and take 10-100 ms each
-        chunks = np.array_split(np.arange(len(polylines)), 8 * max(fcfg["workers"], 1))
+        chunks = np.array_split(np.arange(len(polylines)), 8 * settings.workers(cfg, "feedrate"))
         # the bounds (toppra's above all) cost 5x the plan: a check on every `bounds_every`-th plan
         checks = [bool(fcfg["bounds"]) and i % fcfg["bounds_every"] == 0 for i in range(len(polylines))]
         jobs = [([polylines[i] for i in chunk], [checks[i] for i in chunk], machine, fcfg["blend_tolerance"], band)
                 for chunk in chunks if len(chunk)]
-        plans = [record for chunk in pool_map(_plan, jobs, fcfg["workers"], f"feedrate {args.shape}")
+        plans = [record for chunk in pool_map(_plan, jobs, settings.workers(cfg, "feedrate"), f"feedrate {args.shape}")
                  for record in chunk]
         before_of = dict(zip(originals, plans[: len(originals)], strict=True))
         rows = []

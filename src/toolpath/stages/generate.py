@@ -52,7 +52,7 @@ def label_programs(cfg, shape: str, files: list[Path]) -> dict:
     """Window and label the programs, split them by program, write the windows file and the label metrics."""
     lab, layout, read_opts = cfg.label, settings.layout(cfg), settings.reader_options(cfg)
     jobs = [(path, read_opts, lab.window, lab.stride, settings.bounds(cfg)) for path in files]
-    parts = pool_map(_label_file, jobs, lab.workers, f"label {shape}")
+    parts = pool_map(_label_file, jobs, settings.workers(cfg, "label"), f"label {shape}")
     for failure in (p for p in parts if isinstance(p, str)):
         sys.exit(failure)
     program = [np.full(len(windows), k, dtype=np.int32) for k, windows in enumerate(parts)]

@@ -45,7 +45,8 @@ def main(argv: list[str] | None = None) -> None:
         import mlflow
 
         # spawn, not fork: the parent holds MLflow's threads; results do not depend on the worker count
-        with ProcessPoolExecutor(ocfg["workers"], mp_context=multiprocessing.get_context("spawn")) as pool:
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(settings.workers(cfg, "optimize"), mp_context=spawn) as pool:
             cells = [(windows[i], g, ocfg, seed("study", str(i))) for g in study["generations"] for i in studied]
             fits = [f.result() for f in progress([pool.submit(runs.run_study_task, c) for c in cells],
                                                   f"NACOA study {args.shape}")]

@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run(f"qat@{args.shape}", params, shape=args.shape):
         import mlflow
 
-        producer, threads = f"train@{args.shape}", max(1, cfg.train.common.threads // qcfg["workers"])
+        producer, threads = f"train@{args.shape}", cfg.train.common.threads  # per job, whatever the workers
         fp32_tests = {name: artifacts.read_json(layout.train_metrics(args.shape, name), producer)["test"]
                       for name in qcfg["models"]}
         jobs = [(name, layout.checkpoint(args.shape, name), producer, parts,
@@ -64,7 +64,8 @@ def main(argv: list[str] | None = None) -> None:
                  layout.int8_onnx(args.shape, name), threads,
                  float_modules[name], bool(qcfg["quantize_conv1d"]), bool(qcfg["reduce_range"]),
                  name in quantize_outputs) for name in qcfg["models"]]
-        outputs = qat_runs.run_all(jobs, qcfg["workers"], lambda name: _expected_seconds(layout, args.shape, name),
+        outputs = qat_runs.run_all(jobs, settings.workers(cfg, "qat"),
+                                   lambda name: _expected_seconds(layout, args.shape, name),
                                    lambda jobs: progress(jobs, f"qat {args.shape}"))
         entries, timing = qat_runs.record(jobs, outputs, fp32_tests, out_dir)
         report = {"train_windows": int(len(parts["train"][0])), **entries}

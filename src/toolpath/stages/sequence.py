@@ -66,7 +66,8 @@ def main(argv: list[str] | None = None) -> None:
         sheets = {n: load_sheet(layout.sheet(n)) for n in counts}
         out = clean_dir(layout.sequence)
         # sheets are independent: one per worker (each method's seconds are then timed beside another sheet's work)
-        planned = pool_map(_run_sheet, [(sheets[n], seq) for n in counts], seq["workers"], "sequence sheets")
+        planned = pool_map(_run_sheet, [(sheets[n], seq) for n in counts], settings.workers(cfg, "sequence"),
+                           "sequence sheets")
         for n, outcomes in zip(counts, planned, strict=True):
             metrics["sheets"][str(n)], seconds[str(n)] = outcome_records(outcomes)
             write_json({m: plan_record(o.plan, sheets[n]) for m, o in outcomes.items()}, layout.sheet_plans(n))

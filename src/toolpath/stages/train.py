@@ -5,7 +5,7 @@ Run: python -m toolpath.stages.train --shape gear
 
 Per model, at the paths of :class:`toolpath.pipeline.artifacts.Layout`: the checkpoint of replicate 0, the
 metrics (replicate 0's, and mean / sd / per-seed values over the replicates), its per-epoch curves
-(Figs. 6-7) and the wall time.  One process per shape: the runs go to ``train.workers`` worker
+(Figs. 6-7) and the wall time.  One process per shape: the runs go to ``resources.workers.train`` worker
 processes, so the pipeline does not pay interpreter and MLflow start-up once per model.
 """
 
@@ -39,10 +39,10 @@ def main(argv: list[str] | None = None) -> None:
     outcomes: dict[str, list[replicates.Outcome]] = {m: [] for m in cfg.train.models}
     saved: dict[str, tuple[str | None, dict]] = {}  # model: (its MLflow model URI, its seed summary)
     example = data.part(artifacts.Split.TEST)[0][:4].astype(np.float32)  # the logged models' input example
-    with tracking.stage_run(f"train@{args.shape}", {"replicates": cfg.train.replicates,
-                                                   "workers": common.workers, "threads": common.threads},
-                            shape=args.shape):
-        runs = replicates.run_all(jobs, data.parts(), programs, common.workers, common.threads)
+    workers = settings.workers(cfg, "train")
+    with tracking.stage_run(f"train@{args.shape}", {"replicates": cfg.train.replicates, "workers": workers,
+                                                   "threads": common.threads}, shape=args.shape):
+        runs = replicates.run_all(jobs, data.parts(), programs, workers, common.threads)
         for outcome in progress(runs, f"train {args.shape}", total=len(jobs)):
             outcomes[outcome.job.model].append(outcome)
             if len(outcomes[outcome.job.model]) == (cfg.train.replicates if _learned(cfg, outcome.job.model) else 1):
