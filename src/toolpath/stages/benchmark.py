@@ -1,19 +1,15 @@
 """Inference benchmark for Table 4: FP32 and INT8 in torch, ONNX Runtime and OpenVINO, beside the exact rule.
-
-Run: python -m toolpath.stages.benchmark   (also ``make bench``)
-
-Per model: latency at batch 1, throughput at ``benchmark.batch`` (and ``large_batch`` if set), the time to
-classify each shape's whole test split, and the model file sizes; FP32 eager for every model and INT8
-eager (the reference graph) with ``benchmark.reference_int8``, FP32 and INT8 compiled with inductor
-for ``benchmark.compile`` (30-65 s of compilation per graph here), and in ONNX Runtime and OpenVINO the
-FP32 network (exported here) and the qat stage's QDQ INT8 file.  The INT8 runtime shipped per model is
-the fastest at batch ``benchmark.batch`` among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test
-accuracy on every shape (the qat stage scores each runtime); each shape's whole test split is timed
-for FP32 eager and the shipped runtime's FP32 and INT8.  Timings use the gear models (the architectures, hence the
-speed, are the same for every shape); the test-split times load each shape's own models.  Plus a
-per-branch profile of MCRL, and each runtime's per-operator profile of every FP32 and INT8 ONNX file
-(what stays float).  Writes the inference metrics (DVC metrics; timings vary between runs by
-nature) and logs them to MLflow.  A benchmark, never a test.
+Run: python -m toolpath.stages.benchmark (also ``make bench``). Per model: latency at batch 1, throughput at
+``benchmark.batch`` (and ``large_batch`` if set), the time to classify each shape's whole test split, and the file
+sizes; FP32 eager, INT8 eager (the reference graph) with ``benchmark.reference_int8``, FP32 and INT8 compiled with
+inductor for ``benchmark.compile`` (30-65 s per graph), and in ONNX Runtime and OpenVINO the FP32 network (exported
+here) and the qat stage's QDQ INT8 file. The INT8 runtime shipped per model is the fastest at ``benchmark.batch``
+among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test accuracy on every shape; each shape's
+test split is timed for FP32 eager and the shipped runtime's FP32 and INT8. Timings use the gear models (the
+architectures, hence the speed, are every shape's). Plus MCRL's per-branch profile, each runtime's per-operator
+profile of every ONNX file (what stays float) and, for ``benchmark.recurrent_forms``, the recurrences as ONNX nodes
+beside the shipped file (Table 4d). Writes the inference metrics (timings vary between runs by nature) and logs them
+to MLflow. A benchmark, never a test.
 """
 
 from __future__ import annotations
