@@ -59,7 +59,7 @@ def test_native_form_is_the_network_with_its_recurrences_as_onnx_nodes(name, tmp
     nodes = recurrences.graph_nodes(tmp_path / "native.onnx")
     assert nodes["recurrent_nodes"] == (3 if name == "rnn" else 6)  # MCRL: 3 RNN + 3 LSTM layers
     torch.save(net.state_dict(), tmp_path / "net.pt")
-    if name == "rnn":  # unrolled, the file is ~16x the checkpoint
+    if name == "rnn":  # unrolled, the file is many times the checkpoint
         assert (tmp_path / "native.onnx").stat().st_size <= 2 * (tmp_path / "net.pt").stat().st_size
     for runtime in RUNTIMES:
         np.testing.assert_allclose(runner(tmp_path / "native.onnx", runtime, 1)(x.numpy()), expected,

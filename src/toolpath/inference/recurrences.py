@@ -2,7 +2,7 @@
 
 torch's ONNX exporter writes ``nn.LSTM`` as one ``LSTM`` node but has no translation for the tanh RNN
 (``aten.rnn_tanh``): it decomposes it into one MatMul / Add / Tanh chain per time step, 50 steps x 3
-layers for the RNN baseline, so its file is about 16x its checkpoint.  :data:`TRANSLATIONS` maps
+layers for the RNN baseline, so its file is many times its checkpoint (Table 4d).  :data:`TRANSLATIONS` maps
 ``aten.rnn_tanh`` to the ONNX ``RNN`` operator, and :func:`native_form` gives MCRL's first RNN (a
 :class:`~toolpath.models.mcrl.ContextRNN`, whose hoisted recurrence is a Python loop) a form the exporter
 sees as one ``nn.RNN`` on the fused input.  Both are the same function as the network (the benchmark
