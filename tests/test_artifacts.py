@@ -18,7 +18,8 @@ PARAMS = OmegaConf.load(REPO / "params.yaml")
 def declared_paths() -> set[str]:
     """Every dep and out of dvc.yaml with ${paths.*}, ${item.*} and matrices expanded."""
     stages = yaml.safe_load((REPO / "dvc.yaml").read_text())["stages"]
-    values = {"shapes": list(PARAMS.shapes), "train.models": list(PARAMS.train.models)}
+    values = {"shapes": list(PARAMS.shapes), "train.models": list(PARAMS.train.models),
+              "qat.models": list(PARAMS.qat.models)}
     found = set()
     for stage in stages.values():
         matrix = stage.get("matrix", {})
@@ -44,12 +45,13 @@ def covered(path: str, declared: set[str]) -> bool:
 def test_every_layout_path_is_a_declared_dvc_dep_or_out():
     layout, declared = Layout.from_config(PARAMS.paths), declared_paths()
     shape, model = PARAMS.shapes[0], "mcrl"
-    per_shape = ("windows_file", "label_metrics", "int8_dir", "qat_metrics", "qat_timing", "smoothed_file",
-                 "optimize_rows", "optimize_summary", "optimize_timing", "optimize_curves", "feedrate_rows",
-                 "feedrate_summary", "programs")
+    per_shape = ("windows_file", "label_metrics", "smoothed_file", "optimize_rows", "optimize_summary",
+                 "optimize_timing", "optimize_curves", "feedrate_rows", "feedrate_summary", "programs")
     paths = [getattr(layout, name)(shape) for name in per_shape]
-    paths += [layout.checkpoint(shape, model), layout.int8_model(shape, model), layout.train_metrics(shape, model),
-              layout.train_curves(shape, model), layout.train_timing(shape, model), layout.checkpoint("all", model)]
+    paths += [getattr(layout, name)(model) for name in ("fp32_dir", "int8_dir", "qat_metrics", "qat_timing")]
+    paths += [layout.checkpoint(shape, model), layout.int8_model(shape, model), layout.int8_onnx(shape, model),
+              layout.train_metrics(shape, model), layout.train_curves(shape, model), layout.train_timing(shape, model),
+              layout.test_predictions(shape, model), layout.comparison(shape, "paired"), layout.generalised(model)]
     paths += [layout.generalise_metrics, layout.inference_metrics, layout.sequence_metrics, layout.sequence_timing,
               layout.sheet(PARAMS.sheets.counts[0]), layout.sheet_plans(PARAMS.sheets.counts[0]),
               layout.sheet_program(PARAMS.sheets.counts[0]), layout.corner_metrics, layout.corner_rows,
@@ -183,7 +185,7 @@ def test_a_report_section_with_a_corrupt_input_names_the_file_and_the_stage(tmp_
 def test_the_qat_stage_exits_non_zero_when_a_model_could_not_be_quantised():
     from toolpath.inference.qat_runs import stop_if_any_failed
 
-    report = {"train_windows": 10, "mlp": {"status": "ok"}, "cnn": {"status": "failed", "reason": "x"}}
-    with pytest.raises(SystemExit, match=r"qat@gear: cnn could not be quantised; the reasons are in m.json"):
-        stop_if_any_failed(report, "gear", "m.json", "int8/gear")
-    stop_if_any_failed({"train_windows": 10, "mlp": {"status": "ok"}}, "gear", "m.json", "int8/gear")
+    report = {"gear": {"status": "ok"}, "pentagram": {"status": "failed", "reason": "x"}}
+    with pytest.raises(SystemExit, match=r"qat@cnn: pentagram could not be quantised; the reasons are in m.json"):
+        stop_if_any_failed(report, "qat@cnn", "m.json", "int8/cnn")
+    stop_if_any_failed({"gear": {"status": "ok"}}, "qat@cnn", "m.json", "int8/cnn")

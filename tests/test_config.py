@@ -65,7 +65,7 @@ def test_the_paper_profile_runs_table2_as_printed(tmp_path):
 
     paper = OmegaConf.load(config.compose(["+experiment=paper"], root=REPO, output=tmp_path / "p.yaml"))
     for shape, (lr, rate, steps, batch, epochs, _) in TABLE2.items():
-        train = paper.train[shape]
+        train = paper.train.per_shape[shape]
         assert (train.lr, train.decay_rate, train.decay_steps, train.batch_size, train.epochs) == \
             (lr, rate, steps, batch, epochs), shape
 
@@ -250,7 +250,7 @@ def test_training_settings_precedence_shape_then_model_then_shared_lr_then_commo
 
     cfg = OmegaConf.load(config.compose([], root=REPO, output=tmp_path / "p.yaml"))
     _, mlp = training(cfg, "gear", "mlp")
-    assert mlp["epochs"] == cfg.train.gear.epochs and mlp["lr"] == cfg.train.gear.lr
+    assert mlp["epochs"] == cfg.train.per_shape.gear.epochs and mlp["lr"] == cfg.train.per_shape.gear.lr
     _, rnn = training(cfg, "gear", "rnn")
     assert rnn["epochs"] == cfg.train.per_model.rnn.epochs and rnn["lr"] == cfg.train.per_model.rnn.lr
     assert rnn["clip_grad_norm"] == cfg.train.common.clip_grad_norm

@@ -5,7 +5,7 @@ import numpy as np
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score
 
 from toolpath.models.training.metrics import DEGENERATE, paired_bootstrap
-from toolpath.models.training.replicates import Job, Outcome, paired
+from toolpath.models.training.replicates import Job, Outcome, learned_predictions, paired, saved_predictions
 
 RNG = np.random.default_rng(0)
 Y = RNG.integers(1, 5, 400)
@@ -61,7 +61,9 @@ def test_mcrl_meets_every_model_on_its_own_input_and_the_other_mcrl():
     runs["rnn_xy"] = [outcome("rnn_xy", r, np.ones_like(Y)) for r in range(3)]  # one class: degenerate
     inputs = {"mcrl": "turning", "mlp": "turning", "mcrl_xy": "coordinates", "cnn_xy": "coordinates",
               "rnn_xy": "coordinates"}
-    result = paired(runs, ["mcrl", "mcrl_xy"], inputs, Y, PROGRAMS, lambda a, b: 0)
+    learned = {m: learned_predictions(saved_predictions(r)) for m, r in runs.items()}
+    assert learned["rnn_xy"] is None and learned["mcrl"].shape == (3, len(Y))
+    result = paired(learned, ["mcrl", "mcrl_xy"], inputs, Y, PROGRAMS, lambda a, b: 0)
     assert set(result["mcrl"]) == {"mlp", "mcrl_xy"} and set(result["mcrl_xy"]) == {"cnn_xy", "rnn_xy", "mcrl"}
     assert result["mcrl"]["mlp"]["accuracy"]["verdict"] == "better"
     assert result["mcrl_xy"]["rnn_xy"] == {"verdict": DEGENERATE}

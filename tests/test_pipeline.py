@@ -60,7 +60,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         assert metrics["windows"] > 0
     for shape in ("gear", "pentagram", "maple_leaf"):
         for model in ("mcrl", "mlp", "rule"):  # the smoke profile's models
-            metrics = json.loads((work / f"reports/metrics/train/{shape}/{model}.json").read_text())
+            metrics = json.loads((work / f"reports/metrics/train/{model}/{shape}.json").read_text())
             confusion = np.array(metrics["test"]["confusion"])  # the accuracy is the one its confusion gives
             assert metrics["test"]["accuracy"] == pytest.approx(np.trace(confusion) / confusion.sum())
     general = json.loads((work / "reports/metrics/generalise.json").read_text())
@@ -74,13 +74,13 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
         summary = json.loads((work / f"reports/metrics/optimize/{shape}.json").read_text())
         assert summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["windows"] > 0
         assert summary["convergence_study"]["chosen"] in (3, 6)  # the smoke profile's candidates
-    for shape in ("gear", "pentagram", "maple_leaf"):
-        quantized = json.loads((work / f"reports/metrics/qat/{shape}.json").read_text())
-        for model in ("mlp",):  # the smoke profile's QAT models
-            assert quantized[model]["status"] == "ok" and quantized[model]["reload_identical"]
-            assert (work / f"models/int8/{shape}/{model}.pt2").is_file()
+    for model in ("mlp",):  # the smoke profile's QAT models
+        quantized = json.loads((work / f"reports/metrics/qat/{model}.json").read_text())
+        for shape in ("gear", "pentagram", "maple_leaf"):
+            assert quantized[shape]["status"] == "ok" and quantized[shape]["reload_identical"]
+            assert (work / f"models/int8/{model}/{shape}.pt2").is_file()
             for runtime in ("onnxruntime", "openvino"):  # the shipped ONNX files, scored in each runtime
-                scored = quantized[model]["runtimes"][runtime]
+                scored = quantized[shape]["runtimes"][runtime]
                 assert scored["int8_agrees_with_pt2"] >= 0.9 and abs(scored["accuracy_drop_points"]) <= 5
     assert_shipped_onnx_reloads_and_agrees(work)
     inference = json.loads((work / "reports/metrics/inference.json").read_text())
@@ -130,10 +130,10 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "Table 3 in brief" in (work / "reports/readme_block.md").read_text()
     shown = run(dvc + ["metrics", "show"], work, env)
     assert "reports/metrics/label/gear.json" in shown and "class_count.4" in shown
-    assert "reports/metrics/train/gear/mcrl.json" in shown and "test.accuracy" in shown
-    assert "reports/metrics/train/gear/paired.json" in shown and "mcrl.mlp.accuracy.low" in shown
+    assert "reports/metrics/train/mcrl/gear.json" in shown and "test.accuracy" in shown
+    assert "reports/metrics/compare/gear/paired.json" in shown and "mcrl.mlp.accuracy.low" in shown
     assert "reports/metrics/optimize/gear.json" in shown
-    assert "reports/metrics/qat/gear.json" in shown and "reports/metrics/inference.json" in shown
+    assert "reports/metrics/qat/mlp.json" in shown and "reports/metrics/inference.json" in shown
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert_mlflow_store_reads_as_the_pipeline(work, env, json.loads(timing.read_text()))
@@ -153,6 +153,16 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     config.compose(["+experiment=smoke", "resources.workers.train=3", "resources.workers.corner=2"], root=work)
     assert yaml.safe_load((work / "params.yaml").read_text())["resources"]["workers"]["train"] == 3
     assert "up to date" in run(dvc + ["status"], work, env)
+    # a change to one model's section reruns that model's stages and the stages that read every model's
+    # outputs, never another model's training or QAT (`dvc status` names the stages whose own params changed;
+    # the benchmark and the report follow the new checkpoint through their deps)
+    config.compose(["+experiment=smoke", "models.mcrl.dropout=0.3"], root=work)
+    stale = set(json.loads(run(dvc + ["status", "--json"], work, env)))
+    assert stale == {"train@mcrl", "compare", "generalise"}, stale  # generalise trains MCRL on every shape
+    ran = set(re.findall(r"Running stage '([^']+)'", run(dvc + ["repro", "--dry"], work, env)))
+    assert "train@mcrl" in ran and not ran & {"train@mlp", "train@rule", "train@mlp_xy", "qat@mlp"}, ran
+    config.compose(["+experiment=smoke", "models.mlp.hidden=[16]"], root=work)  # a quantized model: its QAT too
+    assert set(json.loads(run(dvc + ["status", "--json"], work, env))) == {"train@mlp", "qat@mlp", "compare"}
 
 
 def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dict) -> None:
@@ -174,7 +184,7 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dic
         {a.path for a in client.list_artifacts(parent.info.run_id)}
     assert 0 < len(parent.data.metrics) <= 60 and "table3.gear.mcrl.test_accuracy" in parent.data.metrics
     stages = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
-    assert {"generate@gear", "train@gear", "report"} <= {r.info.run_name for r in stages}
+    assert {"generate@gear", "train@mcrl", "compare", "report"} <= {r.info.run_name for r in stages}
     for r in stages:  # each stage's run lasts its work, and the parent spans them all
         assert r.info.status == "FINISHED" and r.info.end_time > r.info.start_time >= parent.info.start_time
         assert r.info.end_time <= parent.info.end_time
@@ -212,14 +222,14 @@ def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
     from toolpath.pipeline.artifacts import Split
 
     X = artifacts.load_windows(work / "data/windows/gear.npz", "generate@gear").part(Split.TEST)[0][:512]
-    fp32 = artifacts.load_classifier(work / "models/gear/mlp.pt", "train@gear").network_.eval()
+    fp32 = artifacts.load_classifier(work / "models/fp32/mlp/gear.pt", "train@mlp").network_.eval()
     import torch
 
     with torch.inference_mode():
         expected = fp32(torch.as_tensor(X, dtype=torch.float32)).argmax(1).numpy()
     for runtime in runtimes.RUNTIMES:
-        first = runtimes.logits(runtimes.runner(work / "models/int8/gear/mlp.onnx", runtime, 1), X)
-        again = runtimes.logits(runtimes.runner(work / "models/int8/gear/mlp.onnx", runtime, 1), X)
+        first = runtimes.logits(runtimes.runner(work / "models/int8/mlp/gear.onnx", runtime, 1), X)
+        again = runtimes.logits(runtimes.runner(work / "models/int8/mlp/gear.onnx", runtime, 1), X)
         assert np.array_equal(first, again)
         assert (first.argmax(1) == expected).mean() >= 0.9
 
@@ -232,7 +242,7 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     # the MLP and the rule only: the queue's plumbing is under test, and MCRL's training and export are the
     # slow part of each experiment (the smoke repro above trains it)
     queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.common.lr=1e-3,5e-4",
-                        "-S", "train.models=[mlp,rule]", "train@gear"], work, env)
+                        "-S", "train.models=[mlp,rule]", "train@mlp"], work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
     run(dvc + ["queue", "start", "-j", "2"], work, env)
@@ -243,7 +253,7 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     run(dvc + ["queue", "stop"], work, env)
     assert status.count("Success") == 2, status
     shown = json.loads(run(dvc + ["exp", "show", "--json"], work, env))
-    tested = {rev["name"]: rev["data"]["metrics"]["reports/metrics/train/gear/mlp.json"]["data"]["test"]
+    tested = {rev["name"]: rev["data"]["metrics"]["reports/metrics/train/mlp/gear.json"]["data"]["test"]
               for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
     assert set(names) <= set(tested)
     for name in names:  # each experiment's own metrics, as `dvc exp show` reads them: its accuracy is its recalls'
@@ -260,4 +270,4 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     assert set(names) <= set(parents)
     for name in names:
         children = [r.info.run_name for r in runs if r.data.tags.get("mlflow.parentRunId") == parents[name]]
-        assert "train@gear" in children
+        assert "train@mlp" in children

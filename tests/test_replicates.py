@@ -99,7 +99,8 @@ def test_two_workers_give_the_bytes_one_worker_gives():
     jobs = [Job("mlp", r, network, {"epochs": 1, "batch_size": 8, "seed": r, "schedule": "onecycle"}) for r in range(3)]
     results = {}
     for workers in (1, 2):
-        outcomes = sorted(run_all(jobs, parts, programs, workers=workers, threads=1), key=lambda o: o.job.replicate)
+        outcomes = sorted(run_all(jobs, {"": parts}, {"": programs}, workers=workers, threads=1),
+                          key=lambda o: o.job.replicate)
         results[workers] = [(o.metrics["test"]["loss"], o.checkpoint["state_dict"]) for o in outcomes]
     for (loss1, state1), (loss2, state2) in zip(results[1], results[2], strict=True):
         assert loss1 == loss2 and all(torch.equal(state1[k], state2[k]) for k in state1)

@@ -40,12 +40,12 @@ def partial(tmp_path, monkeypatch, mlflow_store):
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(label))
         paired = {"mcrl": {"mlp": _paired(0.11, 0.05, 0.17)}}
-        (tmp_path / "reports/metrics/train" / shape).mkdir(parents=True, exist_ok=True)
-        (tmp_path / "reports/metrics/train" / shape / "paired.json").write_text(json.dumps(paired))
+        (tmp_path / "reports/metrics/compare" / shape).mkdir(parents=True, exist_ok=True)
+        (tmp_path / "reports/metrics/compare" / shape / "paired.json").write_text(json.dumps(paired))
         logistic = {"turning": _metrics(0.95)["replicates"], "coordinates": _metrics(0.62)["replicates"]}
-        (tmp_path / "reports/metrics/train" / shape / "logistic.json").write_text(json.dumps(logistic))
+        (tmp_path / "reports/metrics/compare" / shape / "logistic.json").write_text(json.dumps(logistic))
         for model, accuracy in (("mcrl", 0.8123 + k / 100), ("mlp", 0.7), ("rule", 1.0), ("mlp_xy", 0.6)):
-            path = tmp_path / "reports/metrics/train" / shape / f"{model}.json"
+            path = tmp_path / "reports/metrics/train" / model / f"{shape}.json"
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(_metrics(accuracy)))
     monkeypatch.chdir(tmp_path)
@@ -222,5 +222,5 @@ def test_headline_names_a_corrupt_metrics_file_and_skips_an_absent_one(tmp_path)
     assert headline(layout, ["gear"], ["mcrl"]) == ({}, {})  # nothing run yet: nothing to report
     layout.train_metrics("gear", "mcrl").parent.mkdir(parents=True)
     layout.train_metrics("gear", "mcrl").write_text("{")
-    with pytest.raises(SystemExit, match=r"mcrl.json: not a readable JSON file .*; run `dvc repro train@gear`"):
+    with pytest.raises(SystemExit, match=r"mcrl/gear.json: not a readable JSON file .*; run `dvc repro train@mcrl`"):
         headline(layout, ["gear"], ["mcrl"])

@@ -30,7 +30,7 @@ def row_of(table: tables.Table, first: str) -> list[str]:
 
 # ---- classification ----------------------------------------------------------------------------------
 def test_table3_shows_a_models_mean_and_flags_a_degenerate_one():
-    summaries = {m: load(f"metrics/train/gear/{m}.json")["replicates"] for m in ("mcrl", "mlp", "cnn")}
+    summaries = {m: load(f"metrics/train/{m}/gear.json")["replicates"] for m in ("mcrl", "mlp", "cnn")}
     summaries["mlp"]["test"]["accuracy"]["mean"] = 0.123456
     summaries["cnn"] = copy.deepcopy(summaries["cnn"]) | {"degenerate": summaries["cnn"]["replicates"]}
     table = tables.table3("gear", summaries)
@@ -219,7 +219,7 @@ def test_sequencing_tables_show_travel_and_bold_only_a_collision_free_best():
 @pytest.mark.parametrize("builder", [tables.table3, smoothing.reduction_table, smoothing_tables.paper_metric_table])
 def test_a_table_renders_markdown_and_latex_with_every_row(builder):
     if builder is tables.table3:
-        table = builder("gear", {m: load(f"metrics/train/gear/{m}.json")["replicates"] for m in ("mcrl", "rule")})
+        table = builder("gear", {m: load(f"metrics/train/{m}/gear.json")["replicates"] for m in ("mcrl", "rule")})
     else:
         table = builder(optimize_metrics()[0])
     assert table.markdown().count("\n| ") == len(table.rows) + 1  # the header row and every row

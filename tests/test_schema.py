@@ -21,7 +21,7 @@ def checkout(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("override, message", [
-    ("train.gear.epochs=-1", "train.gear.epochs = -1: must be a whole number >= 1"),
+    ("train.per_shape.gear.epochs=-1", "train.per_shape.gear.epochs = -1: must be a whole number >= 1"),
     ("train.per_model.rnn.epochs=0", "train.per_model.rnn.epochs = 0: must be a whole number >= 1"),
     ("label.window=0", "label.window = 0: must be a whole number >= 10"),
     ("label.window=4", "label.window = 4: must be a whole number >= 10"),
@@ -39,7 +39,7 @@ def checkout(tmp_path, monkeypatch):
     ("+foo=1", "foo: unknown key; the top level has"),
     ("foo=1", "Could not override 'foo'"),
     ("+experiment=smok", "Could not find 'experiment/smok'"),
-    ("train.gear.epochs=", "train.gear.epochs = '': must be a whole number >= 1"),
+    ("train.per_shape.gear.epochs=", "train.per_shape.gear.epochs = '': must be a whole number >= 1"),
     ("shapes=gear", "shapes = 'gear': must be a list"),
     ("models.mcrl.schedule.per_shape.gear.epochs=0", "models.mcrl.schedule.per_shape.gear.epochs = 0: must be a whole"),
     ("+models.mcrl.schedule.per_shape.star.epochs=3", "models.mcrl.schedule.per_shape.star: no such shape"),
@@ -73,9 +73,9 @@ def test_every_profile_passes(checkout, profile):
 
 def test_a_stage_refuses_a_bad_params_yaml_before_any_work(checkout):
     params = OmegaConf.load(checkout / "params.yaml")
-    params.train.gear.epochs = -1
+    params.train.per_shape.gear.epochs = -1
     OmegaConf.save(params, checkout / "params.yaml")
-    with pytest.raises(ConfigError, match=r"params.yaml: train.gear.epochs = -1: must be a whole number >= 1"):
+    with pytest.raises(ConfigError, match=r"params.yaml: train.per_shape.gear.epochs = -1: must be a whole number"):
         config.load(checkout / "params.yaml")
     (checkout / "params.yaml").write_text("train: [unclosed\n")
     with pytest.raises(ConfigError, match="params.yaml: not a readable configuration"):

@@ -58,14 +58,15 @@ def test_labelling_names_file_and_line_of_a_malformed_program(smoke_dir):
 def _trained(smoke_dir, shape, model):
     from toolpath.stages import train
 
-    train.main(["--shape", shape])
-    return json.loads((smoke_dir / f"reports/metrics/train/{shape}/{model}.json").read_text())
+    train.main(["--model", model])
+    return json.loads((smoke_dir / f"reports/metrics/train/{model}/{shape}.json").read_text())
 
 
 def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
-    generate.main(["--shape", "maple_leaf"])
+    for shape in ("gear", "pentagram", "maple_leaf"):
+        generate.main(["--shape", shape])
     metrics = _trained(smoke_dir, "maple_leaf", "mlp")
-    first = (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes()
+    first = (smoke_dir / "reports/metrics/train/mlp/maple_leaf.json").read_bytes()
     for split in ("val", "test"):
         assert {"accuracy", "loss", "precision", "recall", "f1", "auc", "per_class", "confusion"} <= set(metrics[split])
     assert metrics["epochs_run"] == 2
@@ -77,24 +78,28 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     assert seeds["test"]["accuracy"]["mean"] == (pytest.approx(np.mean(kept)) if kept else None)
     windows = np.load(smoke_dir / "data/windows/maple_leaf.npz")
     test_programs = len(np.unique(windows["program"][windows["split"] == 2]))
+    test_windows = int((windows["split"] == 2).sum())
     ci = metrics["test"]["accuracy_ci"]  # over the test programs, around the accuracy
     assert ci["programs"] == test_programs and ci["low"] <= metrics["test"]["accuracy"] <= ci["high"]
     assert seeds["accuracy_ci"]["programs"] == test_programs
-    curves = (smoke_dir / "reports/plots/train/maple_leaf/mlp.csv").read_text().splitlines()
+    curves = (smoke_dir / "reports/plots/train/mlp/maple_leaf.csv").read_text().splitlines()
     assert curves[0] == "epoch,lr,train_loss,train_accuracy,val_loss,val_accuracy" and len(curves) == 3
-    assert (smoke_dir / "models/maple_leaf/mlp.pt").is_file()
+    assert {p.name for p in (smoke_dir / "models/fp32/mlp").iterdir()} == \
+        {f"{s}.{ext}" for s in ("gear", "pentagram", "maple_leaf") for ext in ("pt", "test.npz")}
+    saved = np.load(smoke_dir / "models/fp32/mlp/maple_leaf.test.npz")  # every seed's test predictions
+    assert saved["predicted"].shape == (2, test_windows) and saved["degenerate"].shape == (2,)
     client = mlflow.MlflowClient()
     run = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
-               if r.info.run_name == "train@maple_leaf-mlp")
+               if r.info.run_name == "train@mlp-maple_leaf")
     stage = next(r for r in mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
-                 if r.info.run_name == "train@maple_leaf")
+                 if r.info.run_name == "train@mlp")
     assert run.data.tags["mlflow.parentRunId"] == stage.info.run_id  # a child of the stage's run, per model
     steps = [m.step for m in client.get_metric_history(run.info.run_id, "val_accuracy")]
     assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
     assert "confusion_test.json" in [a.path for a in client.list_artifacts(run.info.run_id)]
     _trained(smoke_dir, "maple_leaf", "mlp")  # same seed, byte-identical metrics
-    assert (smoke_dir / "reports/metrics/train/maple_leaf/mlp.json").read_bytes() == first
-    rule = json.loads((smoke_dir / "reports/metrics/train/maple_leaf/rule.json").read_text())
+    assert (smoke_dir / "reports/metrics/train/mlp/maple_leaf.json").read_bytes() == first
+    rule = _trained(smoke_dir, "maple_leaf", "rule")
     assert rule["test"]["accuracy"] == 1.0 and rule["epochs_run"] == 0  # the labels are the rule's
     assert rule["replicates"]["replicates"] == 1  # it learns nothing: one run
 
@@ -103,12 +108,12 @@ def test_train_without_windows_exits_with_a_message(smoke_dir):
     from toolpath.stages import train
 
     with pytest.raises(SystemExit, match="windows file not found"):
-        train.main(["--shape", "gear"])
+        train.main(["--model", "mlp"])
     bad = smoke_dir / "data/windows/gear.npz"
     bad.parent.mkdir(parents=True)
     np.savez(bad, windows=np.zeros((3, 50, 2)))
     with pytest.raises(SystemExit, match="missing origin, local_curvature, label, program, first_line, split"):
-        train.main(["--shape", "gear"])
+        train.main(["--model", "mlp"])
 
 
 def test_train_refuses_windows_of_one_category(smoke_dir):
@@ -119,8 +124,8 @@ def test_train_refuses_windows_of_one_category(smoke_dir):
     write_windows(smoke_dir / "data/windows/gear.npz", np.zeros((6, 50, 2)), [1] * 6, [0, 0, 1, 1, 2, 2])
     with pytest.raises(SystemExit, match=r"gear.npz: the train split holds windows of category 1 only; check "
                                          r"label.bounds .*`dvc repro generate@gear`"):
-        train.main(["--shape", "gear"])
-    assert not (smoke_dir / "reports/metrics/train/gear").exists()
+        train.main(["--model", "mlp"])
+    assert not (smoke_dir / "reports/metrics/train/mlp").exists()
 
 
 def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
@@ -130,7 +135,7 @@ def test_generalise_without_train_metrics_exits_with_a_message(smoke_dir):
         windows = smoke_dir / f"data/windows/{shape}.npz"
         windows.parent.mkdir(parents=True, exist_ok=True)
         write_windows(windows, np.zeros((2, 50, 2)), np.ones(2), np.zeros(2))
-    with pytest.raises(SystemExit, match=r"train/gear/mlp.json: metrics file not found; run `dvc repro train@gear`"):
+    with pytest.raises(SystemExit, match=r"train/mlp/gear.json: metrics file not found; run `dvc repro train@mlp`"):
         generalise.main([])
 
 

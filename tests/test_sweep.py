@@ -60,10 +60,10 @@ def sweep_dir(tmp_path, windows_dir, monkeypatch):
 
 
 def test_space_turns_samples_into_hydra_overrides():
-    space = {"lr": {"key": "train.{shape}.lr", "type": "float", "low": 1e-4, "high": 1e-2, "log": True},
+    space = {"lr": {"key": "train.per_shape.{shape}.lr", "type": "float", "low": 1e-4, "high": 1e-2, "log": True},
              "hidden": {"key": "models.mcrl.mlp_hidden", "type": "choice", "choices": [[8, 4], [16, 8]]}}
     params = parse_space(space, "gear")
-    assert [p.key for p in params] == ["train.gear.lr", "models.mcrl.mlp_hidden"]
+    assert [p.key for p in params] == ["train.per_shape.gear.lr", "models.mcrl.mlp_hidden"]
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=1))
     trial = study.ask()
     values = {p.name: p.value(p.suggest(trial)) for p in params}

@@ -1,6 +1,6 @@
 """Which runtime runs our INT8 models fastest here: the measurement behind Table 4's INT8 artefact.
 
-For each model, its trained FP32 network and its QAT INT8 graph (``models/int8/<shape>/<model>.pt2``,
+For each model, its trained FP32 network and its QAT INT8 graph (``models/int8/<model>/<shape>.pt2``,
 the learned scales included) are run side by side in one process by
 
 * torch: FP32 eager, and the INT8 graph eager (the reference graph: dequantize -> float op -> quantize);
@@ -166,7 +166,7 @@ def measure(models: list[str], shape: str, threads: int, repeats: int, batch: in
     torch.set_num_threads(threads)
     out: dict = {"machine": machine(threads), "shape": shape, "batch": batch, "repeats": repeats, "models": {}}
     for name in models:
-        fp32 = artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_
+        fp32 = artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{name}").network_
         int8_file = layout.int8_model(shape, name)
         twin = fp32_twin(fp32, settings.float_modules(cfg, name), bool(cfg.qat.quantize_conv1d))
         out["models"][name] = compare(name, fp32, int8_file if int8_file.is_file() else None, test, inputs,

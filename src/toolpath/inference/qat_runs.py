@@ -1,5 +1,5 @@
-"""The qat stage's work as functions: the splits QAT trains on, one model quantised in a worker process,
-every model of a shape side by side, and the shape's record (Sec. 5.1.2, Table 4)."""
+"""The qat stage's work as functions: the splits QAT trains on, one model on one shape quantised in a worker
+process, every shape of a model side by side, and the model's record (Sec. 5.1.2, Table 4)."""
 
 from __future__ import annotations
 
@@ -45,18 +45,20 @@ def worker(job: tuple) -> tuple[dict, float, str | None]:
 
 
 def run_all(jobs: list[tuple], workers: int, expected_seconds, progress) -> list[tuple]:
-    """Every job in spawned workers, the longest expected first so two workers finish together; results
-    in job order (the same output for any schedule)."""
+    """Every job in spawned workers, the longest expected first (``expected_seconds(index)``) so two workers
+    finish together; results in job order (the same output for any schedule)."""
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-        futures = {job[0]: pool.submit(worker, job) for job in sorted(jobs, key=lambda job: -expected_seconds(job[0]))}
-        return [futures[job[0]].result() for job in progress(jobs)]
+        order = sorted(range(len(jobs)), key=lambda k: -expected_seconds(k))
+        futures = {k: pool.submit(worker, jobs[k]) for k in order}
+        return [futures[k].result() for k in progress(range(len(jobs)))]
 
 
-def record(jobs: list[tuple], outputs: list[tuple], fp32_tests: dict[str, dict], out_dir: Path) -> tuple[dict, dict]:
-    """(entries, seconds) per model: each QAT entry beside its FP32 test figures and the accuracy drop; a
-    failed model's traceback goes to ``<out_dir>/<model>.failed.txt``."""
+def record(keys: list[str], jobs: list[tuple], outputs: list[tuple], fp32_tests: dict[str, dict],
+           out_dir: Path) -> tuple[dict, dict]:
+    """(entries, seconds) per key (a job's shape): each QAT entry beside its FP32 test figures and the
+    accuracy drop; a failed job's traceback goes to ``<out_dir>/<key>.failed.txt``."""
     report, timing = {}, {}
-    for (name, fp32_file, *_), (entry, seconds, failure) in zip(jobs, outputs, strict=True):
+    for name, (_, fp32_file, *_), (entry, seconds, failure) in zip(keys, jobs, outputs, strict=True):
         fp32 = fp32_tests[name]
         if failure is not None:
             (out_dir / f"{name}.failed.txt").write_text(failure)
@@ -70,7 +72,7 @@ def record(jobs: list[tuple], outputs: list[tuple], fp32_tests: dict[str, dict],
 
 
 def mlflow_metrics(report: dict) -> dict[str, float]:
-    """Each quantised model's INT8 Table 3 figures and accuracy drops (per runtime too)."""
+    """Each quantised entry's INT8 Table 3 figures and accuracy drops (per runtime too), under its key."""
     out = {}
     for name, entry in report.items():
         if not isinstance(entry, dict) or entry.get("status") != "ok":
@@ -83,9 +85,9 @@ def mlflow_metrics(report: dict) -> dict[str, float]:
     return out
 
 
-def stop_if_any_failed(report: dict, shape: str, metrics_file, out_dir) -> None:
-    """Exit non-zero (after the metrics are written) when a model could not be quantised: the stage
+def stop_if_any_failed(report: dict, stage: str, metrics_file, out_dir) -> None:
+    """Exit non-zero (after the metrics are written) when an entry could not be quantised: the stage
     could not do its work, and DVC must not cache it as done."""
     if failed := [name for name, entry in report.items() if isinstance(entry, dict) and entry["status"] != "ok"]:
-        raise SystemExit(f"qat@{shape}: {', '.join(failed)} could not be quantised; the reasons are in "
-                         f"{metrics_file} and {out_dir}/<model>.failed.txt")
+        raise SystemExit(f"{stage}: {', '.join(failed)} could not be quantised; the reasons are in "
+                         f"{metrics_file} and {out_dir}/<shape>.failed.txt")

@@ -12,7 +12,7 @@ from typing import Any
 def split_schedule(config: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     """A model config without its optional ``schedule`` (training settings that a tuned model, e.g.
     ``conf/model/mcrl_tuned.yaml`` written by ``python -m toolpath.sweep``, carries with it), and that
-    schedule; the schedule overrides the shape's ``train.<shape>`` keys for this model only."""
+    schedule; the schedule overrides the shape's ``train.per_shape.<shape>`` keys for this model only."""
     network = dict(config)
     return network, dict(network.pop("schedule", None) or {})
 

@@ -22,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from toolpath.pipeline.layout import Layout
+
 __all__ = ["CATEGORIES", "ArtifactError", "Layout", "SmoothedSet", "Split", "WindowSet", "category_index",
-           "load_arrays", "load_checkpoint", "load_classifier", "load_int8", "load_smoothed", "load_windows",
-           "read_json", "read_rows", "save_checkpoint", "save_smoothed", "save_windows", "write_curves", "write_json",
-           "write_rows"]
+           "load_arrays", "load_checkpoint", "load_classifier", "load_int8", "load_predictions", "load_smoothed",
+           "load_windows", "read_json", "read_rows", "save_checkpoint", "save_predictions", "save_smoothed",
+           "save_windows", "write_curves", "write_json", "write_rows"]
 
 
 class Split(IntEnum):
@@ -55,144 +57,6 @@ class ArtifactError(SystemExit):
 
     def __reduce__(self) -> tuple:  # raised in a pool worker, it reaches the stage whole
         return (ArtifactError, (self.path, self.problem, self.producer))
-
-
-@dataclass(frozen=True)
-class Layout:
-    """Where every artefact lives, from the roots of ``conf/paths``."""
-
-    gcode: Path
-    windows: Path
-    metrics: Path
-    models: Path
-    plots: Path
-    timing: Path
-    corpus: Path
-    smoothed: Path
-    report: Path
-    sheets: Path
-    sequence: Path
-    corner: Path
-
-    @classmethod
-    def from_config(cls, paths: Mapping[str, Any]) -> Layout:
-        return cls(**{f.name: Path(str(paths[f.name])) for f in fields(cls)})
-
-    # ---- per shape -------------------------------------------------------------------------
-    def programs(self, shape: str) -> Path:
-        return self.gcode / shape
-
-    def windows_file(self, shape: str) -> Path:
-        return self.windows / f"{shape}.npz"
-
-    def label_metrics(self, shape: str) -> Path:
-        return self.metrics / "label" / f"{shape}.json"
-
-    def checkpoint(self, shape: str, model: str) -> Path:
-        """An FP32 classifier; ``shape`` 'all' is the one trained on every shape (generalise)."""
-        return self.models / shape / f"{model}.pt"
-
-    def int8_dir(self, shape: str) -> Path:
-        return self.models / "int8" / shape
-
-    def int8_model(self, shape: str, model: str) -> Path:
-        return self.int8_dir(shape) / f"{model}.pt2"
-
-    def int8_onnx(self, shape: str, model: str) -> Path:
-        """The INT8 graph as ONNX (QDQ): what ONNX Runtime and OpenVINO run (:mod:`toolpath.inference.runtimes`)."""
-        return self.int8_dir(shape) / f"{model}.onnx"
-
-    def train_metrics(self, shape: str, model: str) -> Path:
-        """A model's Table 3 figures, or the train stage's comparisons ("paired", "logistic")."""
-        return self.metrics / "train" / shape / f"{model}.json"
-
-    def train_curves(self, shape: str, model: str) -> Path:
-        return self.plots / "train" / shape / f"{model}.csv"
-
-    def train_timing(self, shape: str, model: str) -> Path:
-        return self.timing / "train" / shape / f"{model}.json"
-
-    def qat_metrics(self, shape: str) -> Path:
-        return self.metrics / "qat" / f"{shape}.json"
-
-    def qat_timing(self, shape: str) -> Path:
-        return self.timing / "qat" / f"{shape}.json"
-
-    def smoothed_file(self, shape: str) -> Path:
-        return self.smoothed / f"{shape}.npz"
-
-    def optimize_rows(self, shape: str) -> Path:
-        return self.metrics / "optimize" / f"{shape}.csv"
-
-    def optimize_summary(self, shape: str) -> Path:
-        return self.metrics / "optimize" / f"{shape}.json"
-
-    def optimize_timing(self, shape: str) -> Path:
-        return self.timing / "optimize" / f"{shape}.json"
-
-    def optimize_curves(self, shape: str) -> Path:
-        return self.plots / "optimize" / f"{shape}.csv"
-
-    def feedrate_rows(self, shape: str) -> Path:
-        return self.metrics / "feedrate" / f"{shape}.csv"
-
-    def feedrate_summary(self, shape: str) -> Path:
-        return self.metrics / "feedrate" / f"{shape}.json"
-
-    # ---- whole pipeline --------------------------------------------------------------------
-    @property
-    def generalise_metrics(self) -> Path:
-        return self.metrics / "generalise.json"
-
-    @property
-    def inference_metrics(self) -> Path:
-        return self.metrics / "inference.json"
-
-    @property
-    def classify_metrics(self) -> Path:
-        """Table 5: one drawn test window per category and every model's prediction (classify stage)."""
-        return self.metrics / "classify.json"
-
-    @property
-    def sequence_metrics(self) -> Path:
-        return self.metrics / "sequence.json"
-
-    @property
-    def sequence_timing(self) -> Path:
-        return self.timing / "sequence.json"
-
-    def sheet(self, count: int) -> Path:
-        return self.sheets / f"sheet_{count}.json"
-
-    def sheet_plans(self, count: int) -> Path:
-        return self.sequence / f"sheet_{count}.json"
-
-    def sheet_program(self, count: int) -> Path:
-        return self.sequence / f"sheet_{count}.nc"
-
-    @property
-    def corner_metrics(self) -> Path:
-        return self.metrics / "corner.json"
-
-    @property
-    def corner_rows(self) -> Path:
-        return self.metrics / "corner_corners.csv"
-
-    @property
-    def corner_timing(self) -> Path:
-        return self.timing / "corner.json"
-
-    @property
-    def corner_curves(self) -> Path:
-        return self.plots / "corner" / "training.csv"
-
-    @property
-    def surrogates(self) -> Path:
-        return self.corner / "surrogates.pt"
-
-    @property
-    def corner_profiles(self) -> Path:
-        return self.corner / "profiles.npz"
 
 
 # ---- arrays --------------------------------------------------------------------------------------
@@ -280,6 +144,16 @@ def load_smoothed(path: Path, shape: str | None = None) -> SmoothedSet:
     producer = f"optimize@{shape}" if shape else "optimize"
     arrays = load_arrays(path, [f.name for f in fields(SmoothedSet)], "smoothed-windows", producer)
     return SmoothedSet(**{f.name: arrays[f.name] for f in fields(SmoothedSet)})
+
+
+def save_predictions(arrays: Mapping[str, np.ndarray], path: Path) -> None:
+    """A model's test predictions on one shape (:func:`toolpath.models.training.replicates.saved_predictions`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **arrays)
+
+
+def load_predictions(path: Path, model: str) -> dict[str, np.ndarray]:
+    return load_arrays(path, ["predicted", "degenerate"], "test-predictions", f"train@{model}")
 
 
 # ---- checkpoints ---------------------------------------------------------------------------------

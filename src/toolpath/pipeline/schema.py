@@ -64,13 +64,15 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "label.window": _int(10), "label.stride": _int(1), "label.split.*": FRACTION,
     "gcode.read.chord_tolerance": POSITIVE,
     "gcode.write.decimals": _int(0, 9), "gcode.write.feed": POSITIVE, "gcode.write.plunge_feed": POSITIVE,
-    "train.replicates": _int(1), "train.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
+    "train.replicates": _int(1), "train.per_shape.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
     "train.protocol.settings.epochs": _int(1), "train.protocol.lr.*": POSITIVE,
     "models.*.schedule.epochs": _int(1), "models.*.schedule.per_shape.*.epochs": _int(1),
     "models.*.schedule.lr": POSITIVE, "models.*.schedule.per_shape.*.lr": POSITIVE,
     "generate.*.programs": _int(4),
-    "train.*.batch_size": _int(1), "train.*.lr": _real(gt=0, nullable=True), "train.per_model.*.lr": _real(gt=0),
-    "train.*.decay_rate": _real(gt=0, le=1), "train.*.decay_steps": _int(1), "resources.workers.*": _int(1),
+    "train.per_shape.*.batch_size": _int(1), "train.per_shape.*.lr": _real(gt=0, nullable=True),
+    "train.common.lr": _real(gt=0, nullable=True), "train.per_model.*.lr": _real(gt=0),
+    "train.per_shape.*.decay_rate": _real(gt=0, le=1), "train.per_shape.*.decay_steps": _int(1),
+    "resources.workers.*": _int(1),
     "train.common.threads": _int(1), "train.common.warmup": _real(ge=0, lt=1), "train.common.weight_decay": _real(ge=0),
     "train.common.clip_grad_norm": _real(gt=0, nullable=True), "train.common.aux_loss_weight": _real(ge=0),
     "train.common.patience": _int(1),
@@ -194,15 +196,14 @@ def _relations(cfg: Mapping) -> Iterator[str]:
                "must see data before they freeze")
     shapes = cfg.get("shapes")
     for shape in shapes if isinstance(shapes, list) else []:
-        for section in ("generate", "train"):
-            if shape not in _section(cfg, section):
+        for section, where in (("generate", _section(cfg, "generate")),
+                               ("train.per_shape", _section(_section(cfg, "train"), "per_shape"))):
+            if shape not in where:
                 generate = _section(cfg, "generate")
                 known = [k for k, v in generate.items() if isinstance(v, Mapping) and "programs" in v]
                 yield (f"shapes: {shape!r} has no {section}.{shape} section; the configured shapes are "
                        f"{', '.join(known)}")
                 break
-    for name in set(_section(cfg, "models")) & {"paired", "logistic"}:  # the train stage's comparison files
-        yield f"models.{name}: a reserved name (reports/metrics/train/<shape>/{name}.json is the train stage's)"
     protocol = _section(_section(cfg, "train"), "protocol")
     for name in protocol.get("models") or []:
         if name not in _section(cfg, "models") or name not in _section(protocol, "lr"):
@@ -215,7 +216,7 @@ def _relations(cfg: Mapping) -> Iterator[str]:
         schedule = model.get("schedule") if isinstance(model, Mapping) else None
         per_shape = schedule.get("per_shape") if isinstance(schedule, Mapping) else None
         for shape in per_shape if isinstance(per_shape, Mapping) else []:
-            if shape not in _section(cfg, "train"):
+            if shape not in _section(_section(cfg, "train"), "per_shape"):
                 yield (f"models.{name}.schedule.per_shape.{shape}: no such shape; the configured shapes are "
                        f"{', '.join(str(s) for s in shapes or [])}")
 

@@ -59,7 +59,7 @@ def bounds(cfg: DictConfig) -> tuple[float, float, float]:
 
 # ---- training ------------------------------------------------------------------------------------
 def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The network config of ``models.<model>`` and the training settings of ``train.<shape>`` +
+    """The network config of ``models.<model>`` and the training settings of ``train.per_shape.<shape>`` +
     ``train.common`` for it.
 
     ``train.per_model.<model>`` (e.g. its epochs or learning rate), when set, replaces the shape's
@@ -78,7 +78,7 @@ def training(cfg: DictConfig, shape: str, model: str, replicate: int = 0) -> tup
     schedule = schedule_for_shape(schedule, shape)
     shared = {"lr": common.lr} if common.get("lr") is not None else {}
     own = plain((cfg.train.get("per_model") or {}).get(model) or {})
-    settings = {**plain(cfg.train[shape]), **own, **shared, **_common_training(cfg), **schedule,
+    settings = {**plain(cfg.train.per_shape[shape]), **own, **shared, **_common_training(cfg), **schedule,
                 **protocol_settings(cfg, model),
                 "seed": config.seed_for(cfg.seed, "train", shape, model, *_replicate_key(replicate))}
     return network, settings

@@ -7,7 +7,7 @@ prints last (:func:`end_line`, written when its MLflow run ends), else when the 
 the command ends.  A stage's time therefore includes its interpreter start-up and imports, the
 overhead the pipeline's time budget is about, and equals the span of its MLflow run; DVC's own work
 (before the first stage, hashing outputs and checking dependencies between stages) is counted apart.
-Writes the seconds per stage, per stage family (``train@gear`` -> ``train``), DVC's and in all, and
+Writes the seconds per stage, per stage family (``train@mcrl`` -> ``train``), DVC's and in all, and
 exits with the command's own exit code.
 """
 

@@ -355,17 +355,6 @@ def log_onnx_model(name: str, path: Path, tags: Mapping[str, str]) -> str:
     return info.model_uri
 
 
-def register_best(shape: str, model_uri: str, model: str) -> None:
-    """Register the shape's best model (one definition: :func:`toolpath.models.training.replicates.best_learned`)
-    as ``toolpath-<shape>`` with the alias ``best``: ``models:/toolpath-<shape>@best``."""
-    import mlflow
-
-    name = f"toolpath-{shape.replace('_', '-')}"
-    store = mlflow.MlflowClient()
-    version = with_retry(lambda: mlflow.register_model(model_uri, name, tags={"model": model, "shape": shape}))
-    with_retry(lambda: store.set_registered_model_alias(name, "best", version.version))
-
-
 def record_up_to_date(stages: set[str]) -> dict[str, str]:
     """Tag the parent with each stage of ``stages`` (``dvc.yaml`` names) this invocation did not run:
     ``up_to_date.<run name>`` = the run that produced its outputs.  Returns those tags."""

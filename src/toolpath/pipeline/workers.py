@@ -23,6 +23,12 @@ def shape_arg(description: str, argv: list[str] | None, shapes: Iterable[str]) -
     return parser.parse_args(argv)
 
 
+def model_arg(description: str, argv: list[str] | None, models: Iterable[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--model", required=True, choices=list(models))
+    return parser.parse_args(argv)
+
+
 def clean_dir(path: Path) -> Path:
     """An empty directory at ``path`` (DVC outs are overwritten completely)."""
     if path.exists():

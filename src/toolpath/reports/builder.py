@@ -153,8 +153,8 @@ class Report:
         metrics = self.train_metrics()
         inputs = {m: self.cfg.models[m].get("inputs", "turning") for m in self.learned}
         note = protocol_note(self.cfg)
-        logistic_files = {s: self.layout.train_metrics(s, "logistic") for s in self.shapes}
-        require(list(logistic_files.values()), "train")
+        logistic_files = {s: self.layout.comparison(s, "logistic") for s in self.shapes}
+        require(list(logistic_files.values()), "compare")
         logistic = {s: read_json(p) for s, p in logistic_files.items()}
         def rows(shape: str, block: str) -> dict:
             own = {m: metrics[shape][m]["replicates"] for m in metrics[shape] if m == "rule" or inputs[m] == block}
@@ -162,8 +162,8 @@ class Report:
 
         tables = [table3(s, rows(s, block), block, note if block == "coordinates" else None)
                   for s in self.shapes for block in INPUT_BLOCKS if block in inputs.values()]
-        paired_files = {s: self.layout.train_metrics(s, "paired") for s in self.shapes}
-        require(list(paired_files.values()), "train")
+        paired_files = {s: self.layout.comparison(s, "paired") for s in self.shapes}
+        require(list(paired_files.values()), "compare")
         paired = {s: read_json(p) for s, p in paired_files.items()}
         tables += [paired_table(s, paired[s]) for s in self.shapes if paired[s]]
         self.summaries["table3"] = summary.table3_summary(metrics)
@@ -213,12 +213,13 @@ class Report:
 
     def inference(self) -> str:
         path = self.layout.inference_metrics
-        qat_paths = {s: self.layout.qat_metrics(s) for s in self.shapes}
+        qat_paths = {m: self.layout.qat_metrics(m) for m in self.cfg.qat.models}
         require([path], "benchmark")
         require(list(qat_paths.values()), "qat")
         inference = read_json(path)
-        return self.table([table4(inference, self.shapes),
-                           int8_gains(inference, {s: read_json(p) for s, p in qat_paths.items()}),
+        quantized = {m: read_json(p) for m, p in qat_paths.items()}  # per model, keyed by shape
+        by_shape = {s: {m: entries[s] for m, entries in quantized.items() if s in entries} for s in self.shapes}
+        return self.table([table4(inference, self.shapes), int8_gains(inference, by_shape),
                            int8_profile(inference), recurrent_forms(inference)], "table4_inference")
 
     def classification(self) -> str:

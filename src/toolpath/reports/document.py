@@ -29,7 +29,8 @@ DIFFERENCES = (
     "of the 50 points at 10 and drops a turn between them.",
     "**Training.** `+experiment=paper` runs Table 2 as printed (staircase decay, 203-497 epochs at 1e-4 / 5e-4). "
     "The default profile aims at the pipeline's time budget with a schedule scaled to the steps it runs: one-cycle "
-    "warm-up and cosine decay (`train.common.schedule`) to a peak learning rate of its own (`train.<shape>.lr`), "
+    "warm-up and cosine decay (`train.common.schedule`) to a peak learning rate of its own "
+    "(`train.per_shape.<shape>.lr`), "
     "gradient clipping (`train.common.clip_grad_norm`), the best-validation epoch's weights, fewer epochs or a "
     "lower peak for some baselines (`train.per_model`) and one batch size on every shape (Table 2: 32 on the "
     "pentagram). Every input feature is scaled to unit RMS over the training windows "

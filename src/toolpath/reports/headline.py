@@ -37,7 +37,7 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str],
     for shape in shapes:
         summaries = {}
         for model in models:
-            found = _load(layout.train_metrics(shape, model), f"train@{shape}")
+            found = _load(layout.train_metrics(shape, model), f"train@{model}")
             if found is None:
                 continue
             seeds = found["replicates"]
@@ -49,7 +49,7 @@ def headline(layout: Layout, shapes: Iterable[str], models: Iterable[str],
                 metrics[f"table3.{shape}.{model}.test_accuracy"] = seeds["test"]["accuracy"]["mean"]
         if best:
             tags[f"best_model.{shape}"] = best
-        drop = (_load(layout.qat_metrics(shape), f"qat@{shape}") or {}).get("mcrl", {})
+        drop = (_load(layout.qat_metrics("mcrl"), "qat@mcrl") or {}).get(shape, {})
         if isinstance(drop, dict) and "accuracy_drop_points" in drop:
             metrics[f"int8.{shape}.mcrl.accuracy_drop_points_vs_fp32"] = drop["accuracy_drop_points"]
         optimized = _load(layout.optimize_summary(shape), f"optimize@{shape}") or {}

@@ -80,7 +80,7 @@ def table4(inference: Mapping, shapes: Sequence[str]) -> Table:
         "compare orderings, not sizes.",
         "The eager INT8 graph simulates INT8 arithmetic in float (dequantize -> op -> quantize), so it is slower than "
         "FP32 by construction; INT8 kernels run in the compiled graph and in ONNX Runtime and OpenVINO, which run "
-        "the qat stage's ONNX files (the QAT graph with its learned scales, `models/int8/<shape>/<model>.onnx`)"
+        "the qat stage's ONNX files (the QAT graph with its learned scales, `models/int8/<model>/<shape>.onnx`)"
         + (f"; the FP32 ONNX file they are timed against is exported in {setup['fp32_onnx_form']} form"
            if "fp32_onnx_form" in setup else "") + ".",
     ]

@@ -62,9 +62,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerance", type=float, default=0.01,
                    help="largest two-sided distance (mm) between the new path and the old (default 0.01)")
     p.add_argument("--classifier", default="rule",
-                   help="'rule' (exact LocalCurvature, default), a trained FP32 MODEL.pt, an INT8 MODEL.pt2, a "
-                        "registered model (models:/toolpath-gear@best, from ./mlflow.db or MLFLOW_TRACKING_URI), or an "
-                        "ONNX file (the INT8 MODEL.onnx of models/int8/<shape>/) run in --runtime")
+                   help="'rule' (exact LocalCurvature, default), a trained FP32 .pt (models/fp32/<model>/<shape>.pt), "
+                        "an INT8 .pt2, a registered model (models:/toolpath-gear@best, from ./mlflow.db or "
+                        "MLFLOW_TRACKING_URI), or an ONNX file (models/int8/<model>/<shape>.onnx) run in --runtime")
     p.add_argument("--runtime", default="onnxruntime", choices=("onnxruntime", "openvino"),
                    help="the runtime of an .onnx classifier (default onnxruntime: it keeps every INT8 model within "
                         "a point of FP32, where OpenVINO's INT8 ConvMixer loses 33-37; reports/metrics/inference.json "

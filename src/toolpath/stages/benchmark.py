@@ -7,9 +7,8 @@ here) and the qat stage's QDQ INT8 file. The INT8 runtime shipped per model is t
 among those whose INT8 file lost at most ``benchmark.max_drop_points`` of test accuracy on every shape; each shape's
 test split is timed for FP32 eager and the shipped runtime's FP32 and INT8. Timings use the gear models (the
 architectures, hence the speed, are every shape's). Plus MCRL's per-branch profile, each runtime's per-operator
-profile of every ONNX file (what stays float) and, for ``benchmark.recurrent_forms``, the recurrences as ONNX nodes
-beside the shipped file (Table 4d). Writes the inference metrics (timings vary between runs by nature) and logs them
-to MLflow. A benchmark, never a test.
+profile of every ONNX file and, for ``benchmark.recurrent_forms``, the recurrences as ONNX nodes beside the shipped
+file (Table 4d). Writes the inference metrics (timings vary between runs by nature), logs them to MLflow. Never a test.
 """
 
 from __future__ import annotations
@@ -31,17 +30,17 @@ from toolpath.pipeline.workers import progress
 
 def main(argv: list[str] | None = None) -> None:
     cfg = config.load()
-    bcfg, layout, shapes = settings.plain(cfg.benchmark), settings.layout(cfg), list(cfg.shapes)
-    qcfg = settings.plain(cfg.qat)
+    bcfg, qcfg, layout = settings.plain(cfg.benchmark), settings.plain(cfg.qat), settings.layout(cfg)
+    shapes = list(cfg.shapes)
 
     def fp32(shape: str, name: str) -> torch.nn.Module:
-        return artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{shape}").network_.eval()
+        return artifacts.load_classifier(layout.checkpoint(shape, name), f"train@{name}").network_.eval()
 
     def int8(shape: str, name: str) -> torch.nn.Module | None:
         path = layout.int8_model(shape, name)
         # torch's INT8 graph is timed eagerly (the reference graph) or compiled, or not at all
         wanted = bcfg["reference_int8"] or name in bcfg["compile"]
-        return artifacts.load_int8(path, f"qat@{shape}") if wanted and path.is_file() else None
+        return artifacts.load_int8(path, f"qat@{name}") if wanted and path.is_file() else None
 
     tests = {s: torch.as_tensor(artifacts.load_windows(layout.windows_file(s), s).part(Split.TEST)[0]) for s in shapes}
     inputs = table4.draw_inputs(tests[shapes[0]], bcfg["batch"], bcfg["large_batch"],
@@ -55,12 +54,13 @@ def main(argv: list[str] | None = None) -> None:
                                           qcfg["quantize_conv1d"]}), threads(bcfg["threads"]):
         import mlflow
 
-        qat_metrics = {s: artifacts.read_json(layout.qat_metrics(s), f"qat@{s}") for s in shapes}
+        qat_metrics = {n: artifacts.read_json(layout.qat_metrics(n), f"qat@{n}") if n in qcfg["models"] else {}
+                       for n in bcfg["models"]}
         scratch = Path(tempfile.mkdtemp(prefix="benchmark-onnx-"))
         # the FP32 network in the ONNX runtimes: the first shape's (the architecture, hence the speed, is every
         # shape's) in its INT8 graph's form, exported before any timing; INT8: each shape's own qat file
         fp32_files = {name: scratch / f"{name}.fp32.onnx" for name in bcfg["models"]}
-        table4.export_all([(layout.checkpoint(shapes[0], name), f"train@{shapes[0]}", settings.float_modules(cfg, name),
+        table4.export_all([(layout.checkpoint(shapes[0], name), f"train@{name}", settings.float_modules(cfg, name),
                             bool(qcfg["quantize_conv1d"]), inputs["batch"][:2], fp32_files[name])
                            for name in bcfg["models"]], bcfg["threads"])
         for name in progress(list(bcfg["models"]), "benchmark"):
@@ -70,21 +70,21 @@ def main(argv: list[str] | None = None) -> None:
                 return onnx_runners({"fp32": fp32_file, "int8": layout.int8_onnx(shape, n)}, bcfg["threads"], runtimes)
 
             def choose(entry: dict, n: str = name) -> dict:
-                return shipped(entry, {s: qat_metrics[s].get(n, {}) for s in shapes}, bcfg["max_drop_points"])
+                return shipped(entry, {s: qat_metrics[n].get(s, {}) for s in shapes}, bcfg["max_drop_points"])
 
             entry = bench_model(lambda s, n=name: fp32(s, n), lambda s, n=name: int8(s, n), shapes, tests, inputs,
                                 bcfg, name in bcfg["compile"], onnx, choose)
             entry["parameters"] = parameter_count(fp32(shapes[0], name))
             entry |= table4.files_and_profiles(layout.checkpoint(shapes[0], name), layout.int8_model(shapes[0], name),
                                                fp32_onnx, layout.int8_onnx(shapes[0], name),
-                                               layout.qat_metrics(shapes[0]), bcfg["threads"], inputs["batch"].numpy())
+                                               layout.qat_metrics(name), bcfg["threads"], inputs["batch"].numpy())
             if name in bcfg["recurrent_forms"]:
                 entry["recurrent_forms"] = table4.recurrent_forms(
                     fp32(shapes[0], name), layout.checkpoint(shapes[0], name), fp32_onnx,
                     settings.float_modules(cfg, name), bool(qcfg["quantize_conv1d"]), inputs["batch"], bcfg)
             result["models"][name] = entry
         shutil.rmtree(scratch, ignore_errors=True)
-        rule = artifacts.load_classifier(layout.checkpoint(shapes[0], "rule"), f"train@{shapes[0]}")
+        rule = artifacts.load_classifier(layout.checkpoint(shapes[0], "rule"), "train@rule")
         result["rule"] = bench_rule(rule, shapes, tests, inputs, bcfg)
         if "mcrl" in bcfg["models"]:
             profile = branch_profile(fp32(shapes[0], "mcrl"), inputs["batch"], bcfg["repeats"])

@@ -21,7 +21,8 @@ def main(argv: list[str] | None = None) -> None:
 
         drawn = examples.draw_per_category(data.windows, data.label, data.split == artifacts.Split.TEST,
                                            artifacts.CATEGORIES, config.seed_for(cfg.seed, "report"))
-        predictors = {m: artifacts.load_classifier(layout.checkpoint(shape, m)).predict for m in cfg.train.models}
+        predictors = {m: artifacts.load_classifier(layout.checkpoint(shape, m), f"train@{m}").predict
+                      for m in cfg.train.models}
         predicted = examples.predictions(drawn, predictors)
         artifacts.write_json({"shape": shape, "windows": {str(c): w.tolist() for c, w in drawn.items()},
                               "predictions": {m: {str(c): p for c, p in by.items()} for m, by in predicted.items()}},

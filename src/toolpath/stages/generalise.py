@@ -4,7 +4,8 @@ Reads every shape's windows and the trained MCRL and baselines; picks the best b
 validation accuracy; trains the MCRL on all three shapes; labels the real programs of
 ``paths.corpus`` with the exact rule (files with unsupported features are listed with the reader's
 message; a missing folder is reported, not an error) and scores the all-shapes MCRL on them.
-Writes ``<metrics>/generalise.json`` and ``models/all/<model>.pt``.
+Writes ``<metrics>/generalise.json`` and the all-shapes model
+(:meth:`~toolpath.pipeline.artifacts.Layout.generalised`).
 """
 
 from __future__ import annotations
@@ -61,14 +62,13 @@ def main(argv: list[str] | None = None) -> None:
 
         result = {"best_baseline": best, "baseline_val_accuracy": val_acc, "cross_shape": {}}
         for name in (across.model, best):
-            clfs = {s: artifacts.load_classifier(layout.checkpoint(s, name), f"train@{s}")
-                    for s in cfg.shapes}
+            clfs = {s: artifacts.load_classifier(layout.checkpoint(s, name), f"train@{name}") for s in cfg.shapes}
             result["cross_shape"][name] = cross_shape_matrix(clfs, tests)
         stack = {split.label: tuple(np.concatenate([d.part(split)[i] for d in data.values()]) for i in (0, 1))
                  for split in (Split.TRAIN, Split.VAL)}
         network, train_settings = settings.all_shapes_training(cfg)
         clf = TorchClassifier(network, train_settings, common.class_weight).fit(*stack["train"], *stack["val"])
-        artifacts.save_checkpoint(to_checkpoint(clf), layout.checkpoint("all", across.model))
+        artifacts.save_checkpoint(to_checkpoint(clf), layout.generalised(across.model))
         result["all_shapes"] = {s: classification_metrics(y, clf.predict_proba(X)) for s, (X, y) in tests.items()}
         summary, real = corpus_windows(layout.corpus, settings.reader_options(cfg), cfg.label.window,
                                        cfg.label.stride, settings.bounds(cfg))
@@ -87,11 +87,11 @@ def main(argv: list[str] | None = None) -> None:
 def _val_accuracy(path: Path, shape: str, model: str) -> float:
     """Validation accuracy (mean over the training seeds) from a train metrics file, or exit naming the
     file and the stage to rerun."""
-    metrics = artifacts.read_json(path, f"train@{shape}")
+    metrics = artifacts.read_json(path, f"train@{model}")
     try:
         return float(metrics["replicates"]["val"]["accuracy"]["mean"] or 0.0)  # None: every seed degenerate
     except (KeyError, TypeError, ValueError) as exc:
-        raise artifacts.ArtifactError(path, f"malformed train metrics ({exc!r})", f"train@{shape}") from None
+        raise artifacts.ArtifactError(path, f"malformed train metrics ({exc!r})", f"train@{model}") from None
 
 
 if __name__ == "__main__":

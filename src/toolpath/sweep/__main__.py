@@ -3,7 +3,7 @@
 Run from the repository root, after `dvc repro generate@<shape>`:
 
     python -m toolpath.sweep                                   # conf/sweep/mcrl.yaml as it stands
-    python -m toolpath.sweep sweep.n_trials=40 sweep.workers=2 train.gear.epochs=20
+    python -m toolpath.sweep sweep.n_trials=40 sweep.workers=2 train.per_shape.gear.epochs=20
     python -m toolpath.sweep --config mcrl +experiment=smoke   # any Hydra override of conf/
     python -m toolpath.sweep --trials 5                        # exactly 5 more trials (one machine of several)
 

@@ -44,7 +44,7 @@ def tag_best(spec: SweepSpec, study: optuna.Study) -> None:
 
 def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
     """Write the best trial as ``conf/model/<model>_tuned.yaml``: the model's keys, and the training
-    keys of ``train.<shape>`` and ``train.common`` (lr, epochs, clipping, ...) under ``schedule``,
+    keys of ``train.per_shape.<shape>`` and ``train.common`` (lr, epochs, clipping, ...) under ``schedule``,
     which the train stage applies to this model only, on every shape.  Keys outside both are listed in
     the header, not silently dropped."""
     from toolpath.sweep.space import overrides
@@ -57,7 +57,7 @@ def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
     values = {p.name: p.value(best.params[p.name]) for p in spec.params}
     elsewhere = []
     for p, text in zip(spec.params, overrides(list(spec.params), values), strict=True):
-        model_prefix, train_prefixes = f"models.{spec.model}.", (f"train.{spec.shape}.", "train.common.")
+        model_prefix, train_prefixes = f"models.{spec.model}.", (f"train.per_shape.{spec.shape}.", "train.common.")
         if p.key.startswith(model_prefix):
             OmegaConf.update(tuned, p.key[len(model_prefix):], values[p.name], merge=False)
         elif train_prefix := next((t for t in train_prefixes if p.key.startswith(t)), None):
@@ -73,7 +73,7 @@ def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
              + (f" (the composed default scored {default.value:.4f})." if default else "."),
              f"# Use it: python -m toolpath.sweep --adopt copies it into conf/model/, then "
              f"dvc exp run -S 'model@models.{spec.model}={spec.tuned_config.stem}'",
-             "# `schedule` overrides train.<shape> and train.common for this model on every shape."]
+             "# `schedule` overrides train.per_shape.<shape> and train.common for this model on every shape."]
     if elsewhere:
         lines.append("# Not representable in a model config, pass as overrides: " + " ".join(elsewhere))
     spec.tuned_config.parent.mkdir(parents=True, exist_ok=True)

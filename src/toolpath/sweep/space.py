@@ -1,6 +1,6 @@
 """The search space of ``conf/sweep/<name>.yaml``: Optuna distributions and Hydra overrides.
 
-Each entry names the config key it overrides (``train.{shape}.lr``, ``models.mcrl.dropout``) and a
+Each entry names the config key it overrides (``train.per_shape.{shape}.lr``, ``models.mcrl.dropout``) and a
 distribution: ``float`` (``low``, ``high``, ``log``), ``int`` (``low``, ``high``, ``step``) or
 ``choice`` (``choices``).  Optuna's categorical values must be scalars, so a list choice (hidden
 sizes) is offered as its text (``"128,64,32,16"``) and turned back into the list for the override.

@@ -35,6 +35,7 @@ class Job:
     network: Mapping[str, Any]
     settings: Mapping[str, Any]
     class_weight: str | None = None
+    shape: str = ""  # the key of the windows it trains on (run_all's ``parts`` and ``programs``)
 
 
 @dataclass
@@ -55,7 +56,8 @@ class Outcome:
 _DATA: dict[str, Any] = {}
 
 
-def _init(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], programs: Mapping[str, np.ndarray], threads: int) -> None:
+def _init(parts: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]],
+          programs: Mapping[str, Mapping[str, np.ndarray]], threads: int) -> None:
     import torch
 
     torch.set_num_threads(threads)
@@ -66,18 +68,19 @@ def _init(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], programs: Mapping[
 def _run(job: Job) -> Outcome:
     from toolpath.models.training.classifier import fit_and_score, to_checkpoint
 
-    parts, started = _DATA["parts"], time.time()
+    parts, started = _DATA["parts"][job.shape], time.time()
     clf, metrics, history, seconds = fit_and_score(job.network, job.settings, job.class_weight, parts,
-                                                   programs=_DATA["programs"])
+                                                   programs=_DATA["programs"][job.shape])
     predicted = clf.predict(parts["test"][0]) if "test" in parts else np.zeros(0, np.int64)
     correct = predicted == parts["test"][1] if "test" in parts else np.zeros(0, bool)
     return Outcome(job, to_checkpoint(clf), metrics, history, seconds, correct, started, predicted)
 
 
-def run_all(jobs: Sequence[Job], parts: Mapping[str, tuple[np.ndarray, np.ndarray]],
-            programs: Mapping[str, np.ndarray], workers: int = 1, threads: int = 1) -> Iterator[Outcome]:
+def run_all(jobs: Sequence[Job], parts: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]],
+            programs: Mapping[str, Mapping[str, np.ndarray]], workers: int = 1, threads: int = 1) -> Iterator[Outcome]:
     """Run every job, ``workers`` at a time (in this process when 1), yielding outcomes as they
-    finish.  Each run's result depends only on its job and ``threads``, never on the schedule."""
+    finish.  ``parts`` and ``programs``: per :attr:`Job.shape`, the splits (windows, labels) and each
+    window's program.  Each run's result depends only on its job and ``threads``, never on the schedule."""
     if workers <= 1:
         _init(parts, programs, threads)
         yield from map(_run, jobs)
@@ -138,16 +141,29 @@ def job_order(jobs: Sequence[Job], cost: Callable[[Job], float]) -> list[Job]:
     return sorted(jobs, key=lambda j: (-cost(j), j.model, j.replicate))
 
 
-def paired(outcomes: Mapping[str, Sequence[Outcome]], anchors: Sequence[str], inputs: Mapping[str, str],
+def saved_predictions(outcomes: Sequence[Outcome]) -> dict[str, np.ndarray]:
+    """One model's runs as its test-predictions file holds them: ``predicted`` (replicates x test windows,
+    in replicate order) and ``degenerate`` (per replicate: it predicted one class)."""
+    ordered = sorted(outcomes, key=lambda o: o.job.replicate)
+    return {"predicted": np.stack([o.test_predicted for o in ordered]).astype(np.int64),
+            "degenerate": np.array([degenerate(o.metrics["test"]) for o in ordered])}
+
+
+def learned_predictions(saved: Mapping[str, np.ndarray]) -> np.ndarray | None:
+    """The predictions of the replicates that learned (of a :func:`saved_predictions` record); None if none did."""
+    kept = saved["predicted"][~saved["degenerate"].astype(bool)]
+    return kept if len(kept) else None
+
+
+def paired(learned: Mapping[str, np.ndarray | None], anchors: Sequence[str], inputs: Mapping[str, str],
            y: np.ndarray, programs: np.ndarray, seed: Callable[[str, str], int]) -> dict:
     """Each anchor (MCRL on each input) against every other learned model on the same input and the other
     anchors: :func:`~toolpath.models.training.metrics.paired_bootstrap` over the test programs and the seeds
-    that learned (a model none of whose seeds learned is named, not compared)."""
+    that learned (``learned``: per model, :func:`learned_predictions`; a model none of whose seeds learned is
+    named, not compared)."""
     from toolpath.models.training.metrics import paired_bootstrap
 
-    learned = {m: np.stack([o.test_predicted for o in sorted(runs, key=lambda o: o.job.replicate)
-                            if not degenerate(o.metrics["test"])]) for m, runs in outcomes.items()
-               if m in inputs and any(not degenerate(o.metrics["test"]) for o in runs)}
+    learned = {m: p for m, p in learned.items() if m in inputs and p is not None}
     out: dict[str, dict] = {}
     for anchor in (a for a in anchors if a in learned):
         rivals = [m for m in inputs if m != anchor and (inputs[m] == inputs[anchor] or m in anchors)]
@@ -179,16 +195,16 @@ def logistic_reference(parts: Mapping[str, tuple[np.ndarray, np.ndarray]], input
     return out
 
 
-def comparisons(outcomes: Mapping[str, Sequence[Outcome]], networks: Mapping[str, Mapping[str, Any]],
+def comparisons(learned: Mapping[str, np.ndarray | None], networks: Mapping[str, Mapping[str, Any]],
                 parts: Mapping[str, tuple[np.ndarray, np.ndarray]], test_programs: np.ndarray,
                 seed: Callable[..., int]) -> dict[str, dict]:
-    """The train stage's comparisons of one shape: ``paired`` (:func:`paired`: MCRL on each input against
+    """The compare stage's figures of one shape: ``paired`` (:func:`paired`: MCRL on each input against
     the networks on its input) and ``logistic`` (:func:`logistic_reference` on every input a network
-    reads).  ``networks``: the learned models' configs; ``seed(kind, *names)``: the seed of one bootstrap
-    ("paired", anchor, rival; "bootstrap", "logistic")."""
+    reads).  ``learned``: per learned model, :func:`learned_predictions`; ``networks``: their configs;
+    ``seed(kind, *names)``: the seed of one bootstrap ("paired", anchor, rival; "bootstrap", "logistic")."""
     inputs = {m: config.get("inputs", "turning") for m, config in networks.items()}
     anchors = [m for m, config in networks.items() if config["_target_"] == "toolpath.models.MCRL"]
-    return {"paired": paired(outcomes, anchors, inputs, parts["test"][1], test_programs,
+    return {"paired": paired(learned, anchors, inputs, parts["test"][1], test_programs,
                              lambda a, b: seed("paired", a, b)),
             "logistic": logistic_reference(parts, sorted(set(inputs.values())), test_programs,
                                            seed("bootstrap", "logistic"))}
