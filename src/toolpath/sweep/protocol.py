@@ -126,7 +126,8 @@ def main(argv: list[str] | None = None) -> None:
     parts, programs = validation_parts(cfg)
     todo = jobs(cfg)
     trials = []
-    for outcome in progress(run_all(todo, parts, programs, int(cfg.resources.workers.train), cfg.train.common.threads),
+    for outcome in progress(run_all(todo, {"": parts}, {"": programs}, int(cfg.resources.workers.train),
+                                    cfg.train.common.threads),
                             "protocol", total=len(todo)):
         val = outcome.metrics["val"]
         option = {k: outcome.job.settings[k] for k in structures(cfg, outcome.job.model)[0]}
