@@ -103,7 +103,9 @@ def test_every_dvc_params_key_exists():
                     for k, v in item.items():
                         key = key.replace("${item." + k + "}", str(v))
                     key = re.sub(r"\$\{([^}]+)\}", lambda m: str(OmegaConf.select(params, m.group(1))), key)
-                    assert OmegaConf.select(params, key) is not None, f"{name}{item}: params key {key} missing"
+                    absent = object()  # a key may hold null (e.g. train.per_model): present all the same
+                    assert OmegaConf.select(params, key, default=absent) is not absent, \
+                        f"{name}{item}: params key {key} missing"
 
 
 def test_stage_names_match_modules():
@@ -248,11 +250,19 @@ def test_training_settings_precedence_shape_then_model_then_shared_lr_then_commo
     replicates differ in their seed only, replicate 0 keeps the single-run seed."""
     from toolpath.pipeline.settings import training
 
-    cfg = OmegaConf.load(config.compose([], root=REPO, output=tmp_path / "p.yaml"))
+    listed = OmegaConf.load(config.compose([], root=REPO, output=tmp_path / "o.yaml"))
+    protocol = listed.train.protocol  # the default profile: every learned model under the one protocol
+    assert {"mlp", "rnn", "mcrl", "mlp_xy"} <= set(protocol.models)
+    _, mcrl = training(listed, "gear", "mcrl")  # the protocol wins over the model's own schedule
+    assert mcrl["epochs"] == protocol.settings.epochs and mcrl["lr"] == protocol.lr.mcrl
+    assert mcrl["aux_loss_weight"] == protocol.structure.mcrl.aux_loss_weight
+    # the chain below the protocol, for models it does not list
+    cfg = OmegaConf.load(config.compose(["train.protocol.models=[]", "train.per_model={rnn: {epochs: 12, lr: 0.001}}"],
+                                        root=REPO, output=tmp_path / "p.yaml"))
     _, mlp = training(cfg, "gear", "mlp")
     assert mlp["epochs"] == cfg.train.per_shape.gear.epochs and mlp["lr"] == cfg.train.per_shape.gear.lr
     _, rnn = training(cfg, "gear", "rnn")
-    assert rnn["epochs"] == cfg.train.per_model.rnn.epochs and rnn["lr"] == cfg.train.per_model.rnn.lr
+    assert rnn["epochs"] == 12 and rnn["lr"] == 0.001 != cfg.train.per_shape.gear.lr
     assert rnn["clip_grad_norm"] == cfg.train.common.clip_grad_norm
     shared = OmegaConf.merge(cfg, {"train": {"common": {"lr": 0.0042}}})
     assert training(shared, "gear", "rnn")[1]["lr"] == 0.0042

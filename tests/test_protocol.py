@@ -25,7 +25,9 @@ def test_every_model_of_the_protocol_trains_the_same_settings_but_its_rate():
         assert all(s == shared[0] for s in shared)
         assert all(runs[m]["lr"] == CFG.train.protocol.lr[m] for m in listed)
         assert shared[0]["epochs"] == CFG.train.protocol.settings.epochs and shared[0]["augment"] is True
-        assert all(CFG.models[m].inputs == "coordinates" for m in listed)
+        learned = [m for m in CFG.train.models if CFG.models[m]["_target_"] != "toolpath.models.LocalCurvatureRule"]
+        assert set(listed) == set(learned)  # every learned model of both Table 3 blocks
+        assert {CFG.models[m].get("inputs", "turning") for m in listed} == {"turning", "coordinates"}
         for model, option in CFG.train.protocol.get("structure", {}).items():  # a structural choice, applied
             assert all(runs[model][k] == v for k, v in option.items())
 

@@ -22,7 +22,7 @@ def checkout(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("override, message", [
     ("train.per_shape.gear.epochs=-1", "train.per_shape.gear.epochs = -1: must be a whole number >= 1"),
-    ("train.per_model.rnn.epochs=0", "train.per_model.rnn.epochs = 0: must be a whole number >= 1"),
+    ("train.per_model={rnn: {epochs: 0}}", "train.per_model.rnn.epochs = 0: must be a whole number >= 1"),
     ("label.window=0", "label.window = 0: must be a whole number >= 10"),
     ("label.window=4", "label.window = 4: must be a whole number >= 10"),
     ("optimize.tolerance=-0.1", "optimize.tolerance = -0.1: must be a number > 0"),

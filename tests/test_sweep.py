@@ -112,16 +112,18 @@ def test_smoke_sweep_runs_trials_in_parallel_logs_nested_runs_and_writes_the_tun
     # the tuned config is a model config the train stage accepts, schedule included
     tuned = OmegaConf.load(sweep_dir / "conf/model/mcrl_tuned.yaml")
     assert tuned._target_ == "toolpath.models.MCRL" and tuned.dropout == pytest.approx(study.best_params["dropout"])
-    cfg = compose(sweep_dir, [*SMOKE, "model@models.mcrl=mcrl_tuned"])
+    # outside Table 3's protocol (whose settings win over a model's own schedule, tests/test_config.py)
+    cfg = compose(sweep_dir, [*SMOKE, "model@models.mcrl=mcrl_tuned", "train.protocol.models=[]"])
     network, settings = model_and_settings(cfg, "gear", "mcrl")
     assert "schedule" not in network and settings["lr"] == pytest.approx(study.best_params["lr"])
     assert settings["epochs"] == study.best_params["epochs"]
     assert settings["clip_grad_norm"] == study.best_params["clip_grad_norm"]  # a train.common key, this model only
     assert model_and_settings(cfg, "gear", "mlp")[1]["clip_grad_norm"] == cfg.train.common.clip_grad_norm
     # train.common.lr replaces each shape's rate; a tuned schedule is more specific still
-    plain = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042"])
+    plain = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042", "train.protocol.models=[]"])
     assert model_and_settings(plain, "gear", "mlp")[1]["lr"] == 0.0042
-    tuned_too = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042", "model@models.mcrl=mcrl_tuned"])
+    tuned_too = compose(sweep_dir, [*SMOKE, "train.common.lr=0.0042", "model@models.mcrl=mcrl_tuned",
+                                    "train.protocol.models=[]"])
     assert model_and_settings(tuned_too, "gear", "mcrl")[1]["lr"] == pytest.approx(study.best_params["lr"])
     # a resumed study continues: one more trial, numbered 3
     assert sweep_main([*SWEEP, "sweep.n_trials=4", "sweep.workers=2"]) == 0
@@ -247,3 +249,12 @@ def test_a_trial_scores_the_mean_of_its_replicates_by_hand():
     assert merged["val"] == {"f1": pytest.approx(0.85), "accuracy": pytest.approx(0.925)}
     assert merged["test"]["accuracy"] == pytest.approx(0.85) and merged["epochs_run"] == 5.0
     assert merged["train_seconds"] == 5.0
+
+
+def test_the_swept_model_leaves_the_protocol_whose_settings_would_win_over_the_sampled_keys():
+    from toolpath.sweep.study import outside_protocol
+
+    cfg = OmegaConf.create({"train": {"protocol": {"models": ["mcrl_xy", "mcrl", "mlp"]}}})
+    assert outside_protocol(cfg, "mcrl") == ["train.protocol.models=[mcrl_xy,mlp]"]
+    assert outside_protocol(cfg, "cnn") == []  # not listed: nothing to take out
+    assert outside_protocol(OmegaConf.create({"train": {}}), "mcrl") == []

@@ -6,7 +6,7 @@ and the stage that makes them."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -39,14 +39,16 @@ from toolpath.reports.tables import (
 )
 
 
-def protocol_note(cfg) -> str | None:
-    """Table 3a's note: the one protocol its models trained under (``train.protocol``), from the config."""
+def protocol_note(cfg, block: Iterable[str]) -> str | None:
+    """A Table 3 block's note: the one protocol its models (``block``) trained under (``train.protocol``),
+    from the config; None when the protocol lists none of them."""
     protocol = OmegaConf.to_container(cfg.train.get("protocol") or {}, resolve=True)
-    if not protocol.get("models"):
+    listed = [m for m in protocol.get("models") or [] if m in set(block)]
+    if not listed:
         return None
     settings = protocol.get("settings") or {}
     common = cfg.train.common
-    rates = ", ".join(f"{m} {lr:g}" for m, lr in protocol["lr"].items() if m in protocol["models"])
+    rates = ", ".join(f"{m} {protocol['lr'][m]:g}" for m in listed)
     return (f"One protocol for every learned model of this block: {settings.get('epochs')} epochs, "
             f"{common.schedule} schedule (warm-up {common.warmup:g}), augmentation "
             f"{'on' if settings.get('augment', common.augment) else 'off'}, class weights "
@@ -57,7 +59,7 @@ def protocol_note(cfg) -> str | None:
             f"reports/tuning/protocol.md; the test split is never read): {rates}." + "".join(
                 f" {m}'s own structure, tried at every rate in the same study and chosen there: "
                 + ", ".join(f"{k} {v:g}" for k, v in option.items()) + "."
-                for m, option in (protocol.get("structure") or {}).items() if m in protocol["models"]))
+                for m, option in (protocol.get("structure") or {}).items() if m in listed))
 
 
 class Missing(Exception):
@@ -152,7 +154,6 @@ class Report:
     def performance(self) -> str:
         metrics = self.train_metrics()
         inputs = {m: self.cfg.models[m].get("inputs", "turning") for m in self.learned}
-        note = protocol_note(self.cfg)
         logistic_files = {s: self.layout.comparison(s, "logistic") for s in self.shapes}
         require(list(logistic_files.values()), "compare")
         logistic = {s: read_json(p) for s, p in logistic_files.items()}
@@ -160,7 +161,9 @@ class Report:
             own = {m: metrics[shape][m]["replicates"] for m in metrics[shape] if m == "rule" or inputs[m] == block}
             return {**own, **({LOGISTIC: logistic[shape][block]} if block in logistic[shape] else {})}
 
-        tables = [table3(s, rows(s, block), block, note if block == "coordinates" else None)
+        notes = {block: protocol_note(self.cfg, [m for m in self.learned if inputs[m] == block])
+                 for block in INPUT_BLOCKS}
+        tables = [table3(s, rows(s, block), block, notes[block])
                   for s in self.shapes for block in INPUT_BLOCKS if block in inputs.values()]
         paired_files = {s: self.layout.comparison(s, "paired") for s in self.shapes}
         require(list(paired_files.values()), "compare")

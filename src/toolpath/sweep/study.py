@@ -66,6 +66,15 @@ def _absolute_sqlite(url: str, root: Path) -> str:
     return url
 
 
+def outside_protocol(cfg: DictConfig, model: str) -> list[str]:
+    """The override that takes the swept model out of ``train.protocol`` (whose settings would win over the
+    keys the sweep samples); nothing when the protocol does not list it."""
+    listed = list((cfg.train.get("protocol") or {}).get("models") or [])
+    if model not in listed:
+        return []
+    return ["train.protocol.models=[" + ",".join(m for m in listed if m != model) + "]"]
+
+
 def spec_from(cfg: DictConfig, root: Path, base_overrides: Sequence[str]) -> SweepSpec:
     """The sweep of a composed config (``+sweep=<name>``); a ValueError names a bad setting."""
     s = cfg.sweep
@@ -78,7 +87,8 @@ def spec_from(cfg: DictConfig, root: Path, base_overrides: Sequence[str]) -> Swe
     params = parse_space(OmegaConf.to_container(s.space, resolve=True), s.shape)
     root = Path(root).resolve()
     return SweepSpec(
-        root=root, base_overrides=tuple(base_overrides), study=str(s.study), shape=str(s.shape),
+        root=root, base_overrides=(*base_overrides, *outside_protocol(cfg, str(s.model))), study=str(s.study),
+        shape=str(s.shape),
         model=str(s.model), objective=str(s.objective), n_trials=int(s.n_trials), workers=int(s.workers),
         seed=int(s.seed),
         storage=_absolute_sqlite(str(s.storage or os.environ.get(STORAGE_ENV) or DEFAULT_STORAGE), root),
