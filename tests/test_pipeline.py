@@ -163,6 +163,10 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "train@mcrl" in ran and not ran & {"train@mlp", "train@rule", "train@mlp_xy", "qat@mlp"}, ran
     config.compose(["+experiment=smoke", "models.mlp.hidden=[16]"], root=work)  # a quantized model: its QAT too
     assert set(json.loads(run(dvc + ["status", "--json"], work, env))) == {"train@mlp", "qat@mlp", "compare"}
+    # so does a change to one model's rate in Table 3's one protocol (the report prints the rates: its params
+    # change too; compare follows through its deps)
+    config.compose(["+experiment=smoke", "train.protocol.lr.mlp=0.002"], root=work)
+    assert set(json.loads(run(dvc + ["status", "--json"], work, env))) == {"train@mlp", "qat@mlp", "report"}
 
 
 def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dict) -> None:

@@ -65,7 +65,7 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "gcode.read.chord_tolerance": POSITIVE,
     "gcode.write.decimals": _int(0, 9), "gcode.write.feed": POSITIVE, "gcode.write.plunge_feed": POSITIVE,
     "train.replicates": _int(1), "train.per_shape.*.epochs": _int(1), "train.per_model.*.epochs": _int(1),
-    "train.protocol.settings.epochs": _int(1), "train.protocol.lr.*": POSITIVE,
+    "train.protocol.settings.epochs": _int(1), "train.protocol.lr.*": _real(gt=0, nullable=True),
     "models.*.schedule.epochs": _int(1), "models.*.schedule.per_shape.*.epochs": _int(1),
     "models.*.schedule.lr": POSITIVE, "models.*.schedule.per_shape.*.lr": POSITIVE,
     "generate.*.programs": _int(4),
@@ -206,7 +206,7 @@ def _relations(cfg: Mapping) -> Iterator[str]:
                 break
     protocol = _section(_section(cfg, "train"), "protocol")
     for name in protocol.get("models") or []:
-        if name not in _section(cfg, "models") or name not in _section(protocol, "lr"):
+        if name not in _section(cfg, "models") or _section(protocol, "lr").get(name) is None:
             yield (f"train.protocol.models: {name!r} needs a models.{name} section and a learning rate in "
                    f"train.protocol.lr")
     window = label.get("window")
