@@ -243,9 +243,13 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     """Two queued experiments (a learning-rate grid), two queue workers, metrics in `dvc exp show`,
     and one MLflow parent run per experiment named after it (both workers write one SQLite store)."""
     work, env, dvc = smoke_copy(tmp_path)
-    # the MLP and the rule only: the queue's plumbing is under test, and MCRL's training and export are the
-    # slow part of each experiment (the smoke repro above trains it)
-    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.common.lr=1e-3,5e-4",
+    # as a user queues a grid: in a workspace whose windows are made and committed, so each experiment
+    # takes them from the cache and retrains only the MLP (the queue's plumbing is under test; MCRL's
+    # training and export are the slow part of a whole experiment, and the smoke repro above trains it)
+    run(dvc + ["repro", "generate"], work, env)
+    run(["git", "add", "dvc.lock"], work, env)
+    run(["git", "commit", "-qm", "windows"], work, env)
+    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.protocol.lr.mlp=1e-3,5e-4",
                         "-S", "train.models=[mlp,rule]", "train@mlp"], work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
@@ -256,6 +260,8 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
         time.sleep(3)
     run(dvc + ["queue", "stop"], work, env)
     assert status.count("Success") == 2, status
+    ran = run(dvc + ["queue", "logs", names[0]], work, env)
+    assert "Running stage 'train@mlp'" in ran and "Running stage 'generate@" not in ran, ran[-3000:]
     shown = json.loads(run(dvc + ["exp", "show", "--json"], work, env))
     tested = {rev["name"]: rev["data"]["metrics"]["reports/metrics/train/mlp/gear.json"]["data"]["test"]
               for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
@@ -265,9 +271,12 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
         right = sum((c.get("recall") or 0.0) * c.get("support", 0) for c in classes)
         assert tested[name]["accuracy"] == pytest.approx(right / sum(c.get("support", 0) for c in classes))
         assert tested[name]["windows"] == sum(c.get("support", 0) for c in classes)
-    lrs = {rev["name"]: rev["data"]["params"]["params.yaml"]["data"]["train"]["common"]["lr"]
+    lrs = {rev["name"]: rev["data"]["params"]["params.yaml"]["data"]["train"]["protocol"]["lr"]["mlp"]
            for baseline in shown for exp in baseline["experiments"] or [] for rev in exp["revs"]}
     assert sorted(lrs[n] for n in names) == [5e-4, 1e-3]
+    # each trained at its own rate (the rate changes the result), on the windows the workspace committed
+    assert tested[names[0]]["accuracy"] != tested[names[1]]["accuracy"] or \
+        tested[names[0]]["loss"] != tested[names[1]]["loss"]
     client = mlflow.MlflowClient(tracking_uri=env["MLFLOW_TRACKING_URI"])
     runs = client.search_runs([client.get_experiment_by_name("cnc-curvature").experiment_id])
     parents = {r.info.run_name: r.info.run_id for r in runs if r.data.tags.get("pipeline_role") == "parent"}

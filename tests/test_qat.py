@@ -204,3 +204,28 @@ def test_reduce_range_quantizes_activations_on_seven_bits(trained_mlp):
         # activation fake-quantizers are unsigned (quant_min 0); weights are signed, per channel
         ranges[reduce] = {m.quant_max for m in prepared.modules() if getattr(m, "quant_min", None) == 0}
     assert ranges == {False: {255}, True: {127}}
+
+
+def test_train_and_eval_swap_dropout_only_in_a_graph_that_has_it():
+    """A prepared graph with dropout (the CNN) gets torchao's swap: random in training, deterministic in
+    evaluation; one without (the MLP) keeps its ops as they are and only flips the mode flag."""
+    from toolpath import models
+
+    torch.manual_seed(0)
+    x = torch.randn(8, 50, 2).cumsum(1)
+    cnn = qat.prepare(models.CNN(dropout=0.5).eval(), x[:2], ("prepare", "conv"))
+    cnn(x)  # the observers see data, then hold their scales: only dropout can change an output
+    qat.freeze_observers(cnn)
+    cnn.train()
+    assert not torch.equal(cnn(x), cnn(x))  # dropout on
+    cnn.eval()
+    assert torch.equal(cnn(x), cnn(x))
+    mlp = qat.prepare(models.MLP().eval(), x[:2], ("prepare", "net.0"))
+    mlp(x)
+    qat.freeze_observers(mlp)
+    ops = [str(node.target) for node in mlp.graph.nodes]
+    assert not any(op in target for target in ops for op in qat.MODE_DEPENDENT_OPS)
+    mlp.train()
+    trained = mlp(x)
+    mlp.eval()
+    assert [str(node.target) for node in mlp.graph.nodes] == ops and torch.equal(mlp(x), trained)

@@ -109,6 +109,9 @@ def test_table4d_gives_each_form_and_issue_45s_targets():
     assert "unrolled form was faster" in table.notes[-1]
     inference["models"]["rnn"]["recurrent_forms"] = _forms(50, 1.3, 60_000.0)
     assert "faster in this run for: rnn in ONNX Runtime" in speed.recurrent_forms(inference).notes[-1]
+    empty = speed.recurrent_forms({"setup": {"batch": 256}, "models": {"mlp": {}}})  # the smoke profile's
+    assert not empty.rows and empty.notes == [
+        "Not measured in this run: `benchmark.recurrent_forms` names none of the benchmarked models."]
 
 
 # ---- smoothing -----------------------------------------------------------------------------------------

@@ -43,6 +43,7 @@ def checkout(tmp_path, monkeypatch):
     ("shapes=gear", "shapes = 'gear': must be a list"),
     ("models.mcrl.schedule.per_shape.gear.epochs=0", "models.mcrl.schedule.per_shape.gear.epochs = 0: must be a whole"),
     ("+models.mcrl.schedule.per_shape.star.epochs=3", "models.mcrl.schedule.per_shape.star: no such shape"),
+    ("train.common.lr=0.001", "train.common.lr = 0.001: no trained model uses it, since train.protocol.models lists"),
 ])
 def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, override, message):
     before = (checkout / "params.yaml").read_bytes()
@@ -50,6 +51,12 @@ def test_bad_values_are_one_line_and_params_yaml_stays(checkout, capsys, overrid
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
     assert (checkout / "params.yaml").read_bytes() == before
+
+
+def test_a_common_rate_is_refused_only_when_no_trained_model_would_use_it(checkout):
+    assert config.main(["train.common.lr=0.001", "train.protocol.models=[]"]) == 0  # Table 2's schedules: used
+    assert config.main(["train.common.lr=0.001", "train.protocol.models=[mlp]"]) == 0  # the others use it
+    assert config.main(["train.common.lr=0.001", "train.models=[rule]"]) == 1  # the rule has no rate
 
 
 def test_a_section_replaced_by_a_value_is_one_line_not_a_traceback():

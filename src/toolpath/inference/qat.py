@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import time
+import types
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -141,7 +142,6 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
     kernels (VPMADDUBSW) add pairs of products in saturating 16-bit lanes, compute them exactly;
     ``quantize_outputs``: also the outputs of convolutions and linears that feed a float op
     (:func:`_quantize_outputs`), which ONNX Runtime then runs as integer kernels."""
-    from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import prepare_qat_pt2e
     from torchao.quantization.pt2e.quantizer.x86_inductor_quantizer import (
         X86InductorQuantizer,
@@ -166,10 +166,34 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
             raise ValueError(f"qat.float_modules: {type(net).__name__} has no module {name!r}")
         quantizer.set_module_name_qconfig(name, None)
     prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
-    # .train() / .eval() on an exported graph swap dropout / batch-norm ops the supported way, so the
-    # FP32 training loop runs on it unchanged
-    allow_exported_model_train_eval(prepared)
-    return prepared
+    # .train() / .eval() on an exported graph swap dropout / batch-norm ops, so the FP32 training loop runs
+    # on it unchanged
+    return allow_train_eval(prepared)
+
+
+# aten ops whose behaviour differs between training and inference (the ops torchao's swaps rewrite)
+MODE_DEPENDENT_OPS = ("dropout", "batch_norm")
+
+
+def allow_train_eval(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
+    """``model.train()`` / ``model.eval()`` on an exported graph: torchao's supported swap of its dropout and
+    batch-norm ops, or, for a graph with neither, the mode flag alone.  The swap rewrites only those ops, so
+    on a graph without them it changes nothing, yet each call re-exports its patterns (about 1 s of a QAT
+    epoch's validation and as much again on the way back to training)."""
+    from torchao.quantization.pt2e import allow_exported_model_train_eval
+    from torchao.quantization.pt2e.export_utils import _EXPORTED_TRAINING_ATTR
+
+    if any(node.op == "call_function" and any(op in str(node.target) for op in MODE_DEPENDENT_OPS)
+           for node in model.graph.nodes):
+        return allow_exported_model_train_eval(model)
+
+    def train(self: torch.fx.GraphModule, mode: bool = True) -> torch.fx.GraphModule:
+        setattr(self, _EXPORTED_TRAINING_ATTR, mode)
+        return self
+
+    model.train = types.MethodType(train, model)  # type: ignore[method-assign]
+    model.eval = types.MethodType(lambda self: train(self, False), model)  # type: ignore[method-assign]
+    return model
 
 
 def freeze_observers(prepared: torch.fx.GraphModule) -> None:
@@ -180,11 +204,10 @@ def freeze_observers(prepared: torch.fx.GraphModule) -> None:
 
 
 def convert(prepared: torch.fx.GraphModule) -> torch.fx.GraphModule:
-    from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.quantize_pt2e import convert_pt2e
 
     prepared.eval()
-    return allow_exported_model_train_eval(_drop_unused(convert_pt2e(prepared)))
+    return allow_train_eval(_drop_unused(convert_pt2e(prepared)))
 
 
 def _drop_unused(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
@@ -269,9 +292,9 @@ def load(path: Path) -> nn.Module:
         raise ValueError("not a .pt2 (zip) archive")
     # torchao reports its optional CUDA kernels missing at import: noise on a CPU machine
     logging.getLogger("torchao").setLevel(logging.ERROR)
-    from torchao.quantization.pt2e import allow_exported_model_train_eval
+    import torchao.quantization.pt2e  # noqa: F401  (registers the quantize / dequantize ops the file uses)
 
-    return allow_exported_model_train_eval(torch.export.load(str(path)).module())
+    return allow_train_eval(torch.export.load(str(path)).module())
 
 
 def tensor_bytes(model: nn.Module) -> dict[str, int]:

@@ -209,6 +209,7 @@ def _relations(cfg: Mapping) -> Iterator[str]:
         if name not in _section(cfg, "models") or _section(protocol, "lr").get(name) is None:
             yield (f"train.protocol.models: {name!r} needs a models.{name} section and a learning rate in "
                    f"train.protocol.lr")
+    yield from _unused_common_rate(cfg, protocol)
     window = label.get("window")
     for name, model in _section(cfg, "models").items():
         if isinstance(model, Mapping) and "window" in model and model["window"] != window:
@@ -219,6 +220,21 @@ def _relations(cfg: Mapping) -> Iterator[str]:
             if shape not in _section(_section(cfg, "train"), "per_shape"):
                 yield (f"models.{name}.schedule.per_shape.{shape}: no such shape; the configured shapes are "
                        f"{', '.join(str(s) for s in shapes or [])}")
+
+
+def _unused_common_rate(cfg: Mapping, protocol: Mapping) -> Iterator[str]:
+    """A ``train.common.lr`` that no trained model would use (the protocol's rates win for the models it
+    lists; the exact rule has none): a sweep of it would change nothing."""
+    train = _section(cfg, "train")
+    rate = _section(train, "common").get("lr")
+    trained = train.get("models") if isinstance(train.get("models"), list) else []
+    listed = protocol.get("models") or []
+    outside = [m for m in trained if m not in listed and
+               not str(_section(_section(cfg, "models"), m).get("_target_", "")).endswith("LocalCurvatureRule")]
+    if rate is not None and trained and not outside:
+        yield (f"train.common.lr = {rate!r}: no trained model uses it, since train.protocol.models lists every "
+               "learned model of train.models; set train.protocol.lr.<model> (or train.protocol.models=[] "
+               "to train each model on its own schedule)")
 
 
 def check(cfg: Mapping, reference: Mapping, source: str = "params.yaml") -> None:

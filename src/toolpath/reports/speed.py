@@ -200,6 +200,10 @@ def recurrent_forms(inference: Mapping) -> Table:
                        f"{row['bytes_vs_checkpoint']:.2f}x", *rates, f"{diff:.1e}", target])
             if form == "native":
                 faster += [f"{model} in {RUNTIME_NAMES[r]}" for r in runtimes if ratio[r] > 1.0]
+    if not table.rows:
+        table.notes.append("Not measured in this run: `benchmark.recurrent_forms` names none of the benchmarked "
+                           "models.")
+        return table
     table.notes += [
         "Every form is the same function (largest logit difference from the torch network on the timed batch). "
         "The exporter writes an LSTM as one node but unrolls a tanh RNN step by step; the native form maps it to "
