@@ -178,8 +178,8 @@ MODE_DEPENDENT_OPS = ("dropout", "batch_norm")
 def allow_train_eval(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
     """``model.train()`` / ``model.eval()`` on an exported graph: torchao's supported swap of its dropout and
     batch-norm ops, or, for a graph with neither, the mode flag alone.  The swap rewrites only those ops, so
-    on a graph without them it changes nothing, yet each call re-exports its patterns (about 1 s of a QAT
-    epoch's validation and as much again on the way back to training)."""
+    on a graph without them it changes nothing, yet each call re-exports its patterns, twice per QAT epoch
+    (to validation and back)."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.export_utils import _EXPORTED_TRAINING_ATTR
 
