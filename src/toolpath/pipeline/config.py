@@ -67,8 +67,28 @@ def _one_line(exc: BaseException) -> str:
 
 
 def reference(root: Path) -> dict:
-    """``root/conf`` composed with no override: the keys and types every configuration must keep."""
-    return OmegaConf.to_container(compose_config(root), resolve=True)
+    """``root/conf`` composed with no override: the keys and types every configuration must keep.
+    Kept per content of ``conf/`` (a second check in one process, as a sweep's trials or a test's, costs no
+    second composition); a copy, so a caller cannot change the kept one."""
+    import copy
+
+    key = _conf_digest(Path(root) / CONF_DIR).hexdigest()
+    if key not in _REFERENCES:
+        _REFERENCES[key] = OmegaConf.to_container(compose_config(root), resolve=True)
+    return copy.deepcopy(_REFERENCES[key])
+
+
+_REFERENCES: dict[str, dict] = {}
+
+
+def _conf_digest(conf: Path, start: bytes = b""):
+    """sha256 over ``start`` and every YAML file of ``conf`` (name and bytes), in a fixed order."""
+    import hashlib
+
+    digest = hashlib.sha256(start)
+    for file in sorted(conf.rglob("*.yaml")):
+        digest.update(file.relative_to(conf).as_posix().encode() + b"\0" + file.read_bytes())
+    return digest
 
 
 def validate(cfg: DictConfig | Mapping, root: Path, source: str = PARAMS_FILE) -> None:
@@ -82,15 +102,11 @@ def validate(cfg: DictConfig | Mapping, root: Path, source: str = PARAMS_FILE) -
 def _check_once(path: Path, cfg: DictConfig) -> None:
     """Validate ``params.yaml`` unless this exact file (with this ``conf/``) was checked before: the
     first stage of a run pays for the composition, the others read a stamp in ``.dvc/tmp``."""
-    import hashlib
-
     root = path.resolve().parent
     conf, stamp_dir = root / CONF_DIR, root / ".dvc" / "tmp"
     if not conf.is_dir():  # a params.yaml outside a checkout (tests' scratch folders): nothing to compare with
         return
-    digest = hashlib.sha256(path.read_bytes())
-    for file in sorted(conf.rglob("*.yaml")):
-        digest.update(file.relative_to(conf).as_posix().encode() + b"\0" + file.read_bytes())
+    digest = _conf_digest(conf, path.read_bytes())
     stamp = stamp_dir / "params-checked"
     if stamp.is_file() and stamp.read_text() == digest.hexdigest():
         return
