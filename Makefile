@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV ?= .venv
 # The CPU wheel of torch lies on this machine kind's disk; a bare `torch` pulls a multi-GB CUDA build.
 TORCH_SPEC ?= torch==2.13.0
+# where pip finds that wheel (its environment or its configuration), for uv
+TORCH_FIND_LINKS ?= $(or $(PIP_FIND_LINKS),$(shell $(PYTHON) -m pip config get global.find-links 2>/dev/null))
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 export DVC_NO_ANALYTICS := 1
@@ -13,10 +15,10 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 
 $(STAMP): pyproject.toml Makefile | $(PY)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet "$(TORCH_SPEC)" uv
-	# uv for the rest: about 10 s where pip took 50-85 s of `make repro`'s 25 minutes.  torch stays
-	# pip's (uv does not look on this machine's disk); the installed 2.13.0 satisfies torch>=2.4.
+	$(PY) -m pip install --quiet uv
+	# uv for torch too (seconds, where pip took most of a minute), given the folder pip finds the CPU wheel in:
+	# uv does not read pip's configuration.  With no such folder, pip as before (uv would take PyPI's CUDA build).
+	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
 	# --compile-bytecode: with PYTHONDONTWRITEBYTECODE set (as on this machine kind) nothing else writes
 	# .pyc files, and every stage process would compile MLflow & co. from source again (~5 s each).
 	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e ".[dev]"
