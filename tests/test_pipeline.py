@@ -246,12 +246,15 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     work, env, dvc = smoke_copy(tmp_path)
     # as a user queues a grid: in a workspace whose windows are made and committed, so each experiment
     # takes them from the cache and retrains only the MLP (the queue's plumbing is under test; MCRL's
-    # training and export are the slow part of a whole experiment, and the smoke repro above trains it)
+    # training and export are the slow part of a whole experiment, and the smoke repro above trains it),
+    # on one shape (the smoke repro above covers the three)
+    config.compose(["+experiment=smoke", "shapes=[gear]"], root=work)
     run(dvc + ["repro", "generate"], work, env)
-    run(["git", "add", "dvc.lock"], work, env)
+    run(["git", "add", "params.yaml", "dvc.lock"], work, env)
     run(["git", "commit", "-qm", "windows"], work, env)
-    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "train.protocol.lr.mlp=1e-3,5e-4",
-                        "-S", "train.models=[mlp,rule]", "train@mlp"], work, env)
+    queued = run(dvc + ["exp", "run", "--queue", "-S", "+experiment=smoke", "-S", "shapes=[gear]",
+                        "-S", "train.protocol.lr.mlp=1e-3,5e-4", "-S", "train.models=[mlp,rule]", "train@mlp"],
+                 work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
     run(dvc + ["queue", "start", "-j", "2"], work, env)
