@@ -118,3 +118,17 @@ def test_the_best_learned_model_is_chosen_on_validation_never_the_rule_or_a_dege
     assert best_learned(summaries) == "cnn"
     assert best_learned({"a": seeds(0.9, 0.5), "b": seeds(0.9, 0.6)}) == "a"  # a tie: the first name
     assert best_learned({"rule": seeds(1.0, 1.0)}) is None
+
+
+def test_a_training_process_runs_deterministic_kernels_without_loading_the_compiler():
+    import subprocess
+    import sys
+
+    probe = ("import sys, torch\n"
+             "from toolpath.models.training.replicates import deterministic_torch\n"
+             "deterministic_torch(1)\n"
+             "print(torch.are_deterministic_algorithms_enabled(),"
+             " torch.is_deterministic_algorithms_warn_only_enabled(),"
+             " torch.get_num_threads(), 'torch._inductor' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True", "False", "1", "False"]

@@ -25,13 +25,11 @@ def train_and_score(cfg: DictConfig, shape: str, model: str, threads: int,
                     replicate: int = 0) -> dict[str, Any]:
     """Validation metrics (``classification_metrics``), epochs run and seconds of one training,
     exactly as the train stage trains its ``replicate`` (:func:`toolpath.models.training.classifier.fit_and_score`)."""
-    import torch
-
     from toolpath.models.training.classifier import fit_and_score
+    from toolpath.models.training.replicates import deterministic_torch
     from toolpath.pipeline.settings import layout, training
 
-    torch.set_num_threads(threads)
-    torch.use_deterministic_algorithms(True)
+    deterministic_torch(threads)
     splits = splits or load_splits(layout(cfg).windows_file(shape))
     network, settings = training(cfg, shape, model, replicate)
     _, metrics, _, seconds = fit_and_score(network, settings, cfg.train.common.class_weight, splits)

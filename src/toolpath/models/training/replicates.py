@@ -56,12 +56,26 @@ class Outcome:
 _DATA: dict[str, Any] = {}
 
 
-def _init(parts: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]],
-          programs: Mapping[str, Mapping[str, np.ndarray]], threads: int) -> None:
+def deterministic_torch(threads: int) -> None:
+    """``threads`` intra-op threads and deterministic kernels, for a process that trains in eager mode.
+    ``torch.use_deterministic_algorithms`` also imports inductor (about a second per process) to set its
+    flag for ``torch.compile``, which no training process uses: the eager flag is set directly when
+    this torch has the hook, and checked."""
     import torch
 
     torch.set_num_threads(threads)
-    torch.use_deterministic_algorithms(True)
+    set_flag = getattr(torch._C, "_set_deterministic_algorithms", None)
+    if set_flag is None:
+        torch.use_deterministic_algorithms(True)
+    else:
+        set_flag(True, warn_only=False)
+    if not torch.are_deterministic_algorithms_enabled() or torch.is_deterministic_algorithms_warn_only_enabled():
+        raise RuntimeError("torch did not switch to deterministic algorithms")
+
+
+def _init(parts: Mapping[str, Mapping[str, tuple[np.ndarray, np.ndarray]]],
+          programs: Mapping[str, Mapping[str, np.ndarray]], threads: int) -> None:
+    deterministic_torch(threads)
     _DATA.update(parts=parts, programs=programs)
 
 
