@@ -165,7 +165,10 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
         if name not in known:
             raise ValueError(f"qat.float_modules: {type(net).__name__} has no module {name!r}")
         quantizer.set_module_name_qconfig(name, None)
-    prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
+    from toolpath.inference.conv_bn_kinds import present_kinds_only
+
+    with present_kinds_only():
+        prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
     # .train() / .eval() on an exported graph swap dropout / batch-norm ops, so the FP32 training loop runs
     # on it unchanged
     return allow_train_eval(prepared)
@@ -206,8 +209,12 @@ def freeze_observers(prepared: torch.fx.GraphModule) -> None:
 def convert(prepared: torch.fx.GraphModule) -> torch.fx.GraphModule:
     from torchao.quantization.pt2e.quantize_pt2e import convert_pt2e
 
+    from toolpath.inference.conv_bn_kinds import present_kinds_only
+
     prepared.eval()
-    return allow_train_eval(_drop_unused(convert_pt2e(prepared)))
+    with present_kinds_only():
+        converted = convert_pt2e(prepared)
+    return allow_train_eval(_drop_unused(converted))
 
 
 def _drop_unused(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
