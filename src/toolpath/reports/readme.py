@@ -50,7 +50,7 @@ def time_block(timing: Mapping, stages: tuple[str, ...] = ()) -> str:
                   "the committed results) and did not re-run, so they are not in this figure." if skipped else "")
     return (f"The last measured `dvc repro` of the default profile took {total / 60:.1f} minutes ({total:.0f} s; "
             f"by stage family: {', '.join(f'{name} {seconds:.0f} s' for name, seconds in families)}{dvc}); "
-            "`make repro` adds the install (about 2 minutes on a fresh clone) and writes these seconds per stage to "
+            "`make repro` adds the install before it (once per fresh clone) and writes these seconds per stage to "
             f"`reports/pipeline_time.json`.{up_to_date}")
 
 
