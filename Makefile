@@ -16,9 +16,10 @@ $(PY):
 
 $(STAMP): pyproject.toml Makefile | $(PY)
 	$(PY) -m pip install --quiet uv
-	# uv for torch too (seconds, where pip took most of a minute), given the folder pip finds the CPU wheel in:
-	# uv does not read pip's configuration.  With no such folder, pip as before (uv would take PyPI's CUDA build).
-	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
+	# uv for torch too (faster than pip), given the folder pip finds the CPU wheel in: uv does not read pip's
+	# configuration.  With no such folder, pip as before (uv would take PyPI's CUDA build).  uv compiles the
+	# bytecode of what each call installs only, so this call asks for it too (see --compile-bytecode below).
+	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
 	# --compile-bytecode: with PYTHONDONTWRITEBYTECODE set (as on this machine kind) nothing else writes
 	# .pyc files, and every stage process would compile MLflow & co. from source again (~5 s each).
 	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e ".[dev]"
