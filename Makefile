@@ -21,7 +21,7 @@ $(STAMP): pyproject.toml Makefile | $(PY)
 	# bytecode of what each call installs only, so this call asks for it too (see --compile-bytecode below).
 	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
 	# --compile-bytecode: with PYTHONDONTWRITEBYTECODE set (as on this machine kind) nothing else writes
-	# .pyc files, and every stage process would compile MLflow & co. from source again (~5 s each).
+	# .pyc files, and every stage process would compile MLflow & co. from source again (seconds each).
 	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e ".[dev]"
 	# mealpy 3.0.3 pins numpy<=1.26 (lifted upstream, unreleased): install it without its pins; its
 	# needs (numpy, scipy, pandas, matplotlib, tqdm) are already there.  Not in pyproject for that reason.

@@ -2,10 +2,10 @@
 
 ``prepare_qat_pt2e`` fuses each conv + batch-norm into its QAT form, and ``convert_pt2e`` folds it back into
 the convolution; both try the patterns of every kind, 1-D and 2-D convolutions and transposed ones, and
-export each pattern graph (about a third of a second each; a dozen per kind in the fold) whether or not
-the graph holds that kind.  A kind the graph does not hold cannot match, so skipping it changes nothing
-(the tests compare the graphs' code and outputs); a graph that holds a kind, or a generic
-``aten.convolution`` that could be any, is rewritten by torchao as before.
+export each pattern graph (the fold has many per kind) whether or not the graph holds that kind.  A kind
+the graph does not hold cannot match, so skipping it changes nothing (the tests compare the graphs' code
+and outputs); a graph that holds a kind, or a generic ``aten.convolution`` that could be any, is rewritten
+by torchao as before.
 """
 
 from __future__ import annotations

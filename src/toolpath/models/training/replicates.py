@@ -58,7 +58,7 @@ _DATA: dict[str, Any] = {}
 
 def deterministic_torch(threads: int) -> None:
     """``threads`` intra-op threads and deterministic kernels, for a process that trains in eager mode.
-    ``torch.use_deterministic_algorithms`` also imports inductor (about a second per process) to set its
+    ``torch.use_deterministic_algorithms`` also imports inductor (a slow import in every process) to set its
     flag for ``torch.compile``, which no training process uses: the eager flag is set directly when
     this torch has the hook, and checked."""
     import torch
