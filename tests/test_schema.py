@@ -94,3 +94,13 @@ def test_a_checked_params_yaml_is_not_checked_again(checkout, monkeypatch):
     assert (checkout / ".dvc/tmp/params-checked").is_file()
     monkeypatch.setattr(config, "validate", lambda *a, **k: pytest.fail("checked twice"))
     config.load(checkout / "params.yaml")
+
+
+def test_the_kept_reference_follows_conf_and_cannot_be_changed_by_a_caller(checkout):
+    first = config.reference(checkout)
+    first["label"]["window"] = -1  # a caller's change stays in its copy
+    assert config.reference(checkout)["label"]["window"] == OmegaConf.load(checkout / "conf/label/default.yaml").window
+    label = checkout / "conf/label/default.yaml"
+    label.write_text(label.read_text().replace("window: ", "window: 1", 1))  # conf/ changed: composed again
+    assert OmegaConf.load(label).window >= 100 and config.reference(checkout)["label"]["window"] == \
+        OmegaConf.load(label).window
