@@ -189,3 +189,39 @@ def test_the_qat_stage_exits_non_zero_when_a_model_could_not_be_quantised():
     with pytest.raises(SystemExit, match=r"qat@cnn: pentagram could not be quantised; the reasons are in m.json"):
         stop_if_any_failed(report, "qat@cnn", "m.json", "int8/cnn")
     stop_if_any_failed({"gear": {"status": "ok"}}, "qat@cnn", "m.json", "int8/cnn")
+
+
+def test_qat_jobs_ship_as_tasks_of_their_own_and_keep_job_order(monkeypatch):
+    """Each QAT job's ONNX export and scoring is queued as its own task when the job's QAT ends; the
+    records come back in job order, whole (QAT fields and shipped fields), and a failure at either step
+    is that job's failed record with its traceback."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from toolpath.inference import qat_runs
+
+    def worker(job):
+        k, onnx, fails = job
+        if fails == "qat":
+            return {"status": "failed", "reason": "qat"}, 0.0, "trace qat", None
+        return {"status": "ok", "job": k}, float(k), None, None if onnx is None else (k, fails)
+
+    def ship(handoff):
+        k, fails = handoff
+        order.append(k)
+        return ({"status": "failed", "reason": "ship"}, "trace ship") if fails == "ship" else \
+            ({"onnx_file_bytes": 10 * k}, None)
+
+    order: list[int] = []
+    monkeypatch.setattr(qat_runs, "worker", worker)
+    monkeypatch.setattr(qat_runs, "ship", ship)
+    jobs = [(0, "a.onnx", None), (1, None, None), (2, "c.onnx", "ship"), (3, "d.onnx", "qat")]
+    finished = []
+    with ThreadPoolExecutor(2) as pool:
+        results = [None] * len(jobs)
+        for k in qat_runs._finished(pool, [pool.submit(worker, job) for job in jobs], list(range(4)), results):
+            finished.append(k)
+    assert sorted(finished) == [0, 1, 2, 3] and sorted(order) == [0, 2]  # one ship task per job with a file
+    assert results[0] == ({"status": "ok", "job": 0, "onnx_file_bytes": 0}, 0.0, None)
+    assert results[1] == ({"status": "ok", "job": 1}, 1.0, None)
+    assert results[2] == ({"status": "failed", "reason": "ship"}, 0.0, "trace ship")
+    assert results[3] == ({"status": "failed", "reason": "qat"}, 0.0, "trace qat")

@@ -336,12 +336,11 @@ def op_precision(model: torch.fx.GraphModule) -> dict[str, dict[str, int]]:
 
 def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettings, freeze_last: int,
                  out: Path, show_epochs: bool = True, float_modules: Sequence[str] = (),
-                 onnx: Path | None = None, threads: int = 1, quantize_conv1d: bool = False,
-                 reduce_range: bool = False, quantize_outputs: bool = False) -> tuple[dict, float]:
+                 quantize_conv1d: bool = False, reduce_range: bool = False,
+                 quantize_outputs: bool = False) -> tuple[dict, float, np.ndarray]:
     """QAT from a trained FP32 checkpoint, convert, save to ``out``, reload-check and score one model on
-    ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT).
-    With ``onnx`` (a path): also export the INT8 graph there as ONNX and score it in every runtime of
-    :mod:`toolpath.inference.runtimes` (on ``threads`` threads) against the FP32 network's accuracy."""
+    ``parts`` (windows and class indices 0-3 per split); returns (its record, seconds of QAT, the saved
+    graph's prediction per test window: what :func:`ship_int8` compares the runtimes with)."""
     clf = from_checkpoint(checkpoint)
     started = time.perf_counter()
     if show_epochs:
@@ -360,19 +359,26 @@ def quantize_one(name: str, checkpoint: dict, parts: dict, settings: TrainSettin
     reloaded = predict_logits(load(out), X_test[:RELOAD_CHECK])  # the saved graph, on a slice: same bytes out
     proba = torch.softmax(logits, dim=1).numpy()
     metrics = classification_metrics(CATEGORIES[parts["test"][1]], proba)
-    shipped: dict = {}
-    if onnx is not None:
-        from toolpath.inference import runtimes
-
-        fp32_predictions = predict_logits(from_checkpoint(checkpoint).network_.eval(), X_test).argmax(1).numpy()
-        fp32_accuracy = float((fp32_predictions == parts["test"][1]).mean())
-        shipped = {"onnx_file_bytes": runtimes.export_int8(out, X_test[:2], onnx),
-                   "runtimes": runtimes.score(onnx, *parts["test"], proba.argmax(1), fp32_accuracy, threads,
-                                              lambda y, p: classification_metrics(CATEGORIES[y], p))}
-    return {"status": "ok", "test": metrics, **shipped,
+    return {"status": "ok", "test": metrics,
             "reload_identical": bool(torch.equal(logits[:RELOAD_CHECK], reloaded)),
             "file_bytes": size, "tensor_bytes": tensor_bytes(result.model),
             "fp32_tensor_bytes": tensor_bytes(from_checkpoint(checkpoint).network_),
             "ops": op_precision(result.model), "epochs": len(result.history),
             "float_modules": list(float_modules), "quantize_conv1d": quantize_conv1d,
-            "reduce_range": reduce_range, "quantize_outputs": quantize_outputs}, seconds
+            "reduce_range": reduce_range, "quantize_outputs": quantize_outputs}, seconds, proba.argmax(1)
+
+
+def ship_int8(checkpoint: dict, out: Path, onnx: Path, test: tuple[np.ndarray, np.ndarray], predicted: np.ndarray,
+              threads: int = 1) -> dict:
+    """The INT8 graph saved at ``out`` exported to ``onnx`` and scored in every runtime of
+    :mod:`toolpath.inference.runtimes` (on ``threads`` threads) on the ``test`` split (windows, class
+    indices 0-3), against the FP32 network's accuracy and the saved graph's ``predicted`` classes.  Apart
+    from :func:`quantize_one` so that a worker can ship one shape while another trains the next."""
+    from toolpath.inference import runtimes
+
+    X_test = torch.as_tensor(test[0])
+    fp32_predictions = predict_logits(from_checkpoint(checkpoint).network_.eval(), X_test).argmax(1).numpy()
+    fp32_accuracy = float((fp32_predictions == test[1]).mean())
+    return {"onnx_file_bytes": runtimes.export_int8(out, X_test[:2], onnx),
+            "runtimes": runtimes.score(onnx, *test, predicted, fp32_accuracy, threads,
+                                       lambda y, p: classification_metrics(CATEGORIES[y], p))}

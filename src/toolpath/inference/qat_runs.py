@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import multiprocessing
 import traceback
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from toolpath.inference.qat import quantize_one
+from toolpath.inference.qat import quantize_one, ship_int8
 from toolpath.pipeline import artifacts
 
 TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
@@ -27,30 +27,80 @@ def training_parts(data: artifacts.WindowSet, subset: int | None, seed: int) -> 
     return parts
 
 
-def worker(job: tuple) -> tuple[dict, float, str | None]:
-    """One model in a worker process (spawned: fresh torch state, its share of the threads)."""
+def worker(job: tuple) -> tuple[dict, float, str | None, tuple | None]:
+    """One model's QAT on one shape in a worker process (spawned: fresh torch state, its share of the
+    threads): (record, seconds, traceback of a failure, what :func:`ship` needs when an ONNX file is asked)."""
     name, fp32_file, producer, parts, train_settings, freeze_last, out, onnx, threads, float_modules, *flags = job
     conv1d, reduce, outputs = flags
-    torch.set_num_threads(threads)
-    torch.use_deterministic_algorithms(True)
+    _threads(threads)
     artifacts.load_classifier(fp32_file, producer)  # a corrupt file stops the stage, it is no QAT result
     checkpoint = artifacts.load_checkpoint(fp32_file, producer)
     try:
-        entry, seconds = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out, show_epochs=False,
-                                      float_modules=float_modules, onnx=onnx, threads=threads,
-                                      quantize_conv1d=conv1d, reduce_range=reduce, quantize_outputs=outputs)
-        return entry, seconds, None
+        entry, seconds, predicted = quantize_one(name, checkpoint, parts, train_settings, freeze_last, out,
+                                                 show_epochs=False, float_modules=float_modules,
+                                                 quantize_conv1d=conv1d, reduce_range=reduce,
+                                                 quantize_outputs=outputs)
     except Exception as exc:  # a route that fails is a result to report, not a crash
-        return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}, 0.0, traceback.format_exc()
+        return _failed(exc), 0.0, traceback.format_exc(), None
+    return entry, seconds, None, None if onnx is None else (checkpoint, out, onnx, parts["test"], predicted, threads)
+
+
+def ship(handoff: tuple) -> tuple[dict | None, str | None]:
+    """:func:`~toolpath.inference.qat.ship_int8` in a worker process: (its fields of the record, None) or
+    (a failed record, its traceback)."""
+    _threads(handoff[-1])
+    try:
+        return ship_int8(*handoff), None
+    except Exception as exc:  # a runtime route that fails is reported like a QAT route that fails
+        return _failed(exc), traceback.format_exc()
+
+
+def _threads(threads: int) -> None:
+    torch.set_num_threads(threads)
+    torch.use_deterministic_algorithms(True)
+
+
+def _failed(exc: Exception) -> dict:
+    return {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"[:2000]}
 
 
 def run_all(jobs: list[tuple], workers: int, expected_seconds, progress) -> list[tuple]:
-    """Every job in spawned workers, the longest expected first (``expected_seconds(index)``) so two workers
-    finish together; results in job order (the same output for any schedule)."""
+    """Every job in spawned workers, the longest expected first (``expected_seconds(index)``); results
+    (record, seconds, failure traceback) in job order, the same output for any schedule.  A job's ONNX
+    export and runtime scoring (:func:`ship`) is a task of its own, queued when its QAT ends: three shapes
+    on two workers then finish nearly together instead of the third running alone."""
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         order = sorted(range(len(jobs)), key=lambda k: -expected_seconds(k))
-        futures = {k: pool.submit(worker, jobs[k]) for k in order}
-        return [futures[k].result() for k in progress(range(len(jobs)))]
+        results: list = [None] * len(jobs)
+        for _ in progress(_finished(pool, [pool.submit(worker, jobs[k]) for k in order], order, results)):
+            pass
+        return results
+
+
+def _finished(pool: ProcessPoolExecutor, trained: list, order: list[int], results: list):
+    """Yield each job's index once its record is whole, filling ``results``."""
+    pending = dict(zip(trained, order, strict=True))
+    shipping: dict = {}
+    while pending:
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for future in done:
+            k = pending.pop(future)
+            if k in shipping:  # the shipping task of job k
+                entry, seconds, _ = results[k]
+                shipped, failure = future.result()
+                if failure is not None:
+                    results[k] = (shipped, 0.0, failure)
+                else:
+                    results[k] = ({**entry, **shipped}, seconds, None)
+                yield k
+                continue
+            entry, seconds, failure, handoff = future.result()
+            results[k] = (entry, seconds, failure)
+            if handoff is None:
+                yield k
+            else:
+                shipping[k] = True
+                pending[pool.submit(ship, handoff)] = k
 
 
 def record(keys: list[str], jobs: list[tuple], outputs: list[tuple], fp32_tests: dict[str, dict],

@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> None:
                  bool(qcfg["reduce_range"]), name in quantize_outputs) for shape in cfg.shapes]
         outputs = qat_runs.run_all(jobs, settings.workers(cfg, "qat"),
                                    lambda k: _expected_seconds(layout, cfg.shapes[k], name),
-                                   lambda jobs: progress(jobs, f"qat {name}"))
+                                   lambda done: progress(done, f"qat {name}", total=len(jobs)))
         report, timing = qat_runs.record(list(cfg.shapes), jobs, outputs, fp32_tests, out_dir)
         for shape in cfg.shapes:
             report[shape]["train_windows"] = int(len(parts[shape]["train"][0]))
