@@ -8,6 +8,11 @@ TORCH_FIND_LINKS ?= $(or $(PIP_FIND_LINKS),$(shell $(PYTHON) -m pip config get g
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 export DVC_NO_ANALYTICS := 1
+# Bytecode is compiled on first import and kept (in .venv and src/), not for every package at install: a
+# machine that sets PYTHONDONTWRITEBYTECODE would otherwise compile every module again in every process
+# (each stage, each test worker), and compiling all of torch, MLflow & co. up front costs more than the
+# modules the pipeline imports.  __pycache__/ is in .gitignore and .dvcignore.
+unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: install repro readme test test-fast core-check bench smooth-example params lint clean-venv
 
@@ -17,15 +22,12 @@ $(PY):
 $(STAMP): pyproject.toml Makefile | $(PY)
 	$(PY) -m pip install --quiet uv
 	# uv for torch too (faster than pip), given the folder pip finds the CPU wheel in: uv does not read pip's
-	# configuration.  With no such folder, pip as before (uv would take PyPI's CUDA build).  uv compiles the
-	# bytecode of what each call installs only, so this call asks for it too (see --compile-bytecode below).
-	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
-	# --compile-bytecode: with PYTHONDONTWRITEBYTECODE set (as on this machine kind) nothing else writes
-	# .pyc files, and every stage process would compile MLflow & co. from source again (seconds each).
-	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) -e ".[dev]"
+	# configuration.  With no such folder, pip as before (uv would take PyPI's CUDA build).
+	$(if $(TORCH_FIND_LINKS),$(VENV)/bin/uv pip install --quiet --python $(PY) --find-links $(TORCH_FIND_LINKS),$(PY) -m pip install --quiet) "$(TORCH_SPEC)"
+	$(VENV)/bin/uv pip install --quiet --python $(PY) -e ".[dev]"
 	# mealpy 3.0.3 pins numpy<=1.26 (lifted upstream, unreleased): install it without its pins; its
 	# needs (numpy, scipy, pandas, matplotlib, tqdm) are already there.  Not in pyproject for that reason.
-	$(VENV)/bin/uv pip install --quiet --compile-bytecode --python $(PY) --no-deps "mealpy==3.0.3"
+	$(VENV)/bin/uv pip install --quiet --python $(PY) --no-deps "mealpy==3.0.3"
 	# OpenVINO (an INT8 runtime the benchmarks compare) keeps its telemetry in its model converters, which
 	# we never call: switched off all the same
 	$(VENV)/bin/opt_in_out --opt_out > /dev/null
