@@ -262,7 +262,7 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     deadline = time.monotonic() + 600
     while re.search(r"\b(Queued|Running)\b", status := run(dvc + ["queue", "status"], work, env)):
         assert time.monotonic() < deadline, status
-        time.sleep(3)
+        time.sleep(1)
     run(dvc + ["queue", "stop"], work, env)
     assert status.count("Success") == 2, status
     ran = run(dvc + ["queue", "logs", names[0]], work, env)
