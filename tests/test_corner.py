@@ -275,3 +275,33 @@ def test_a_margin_outside_zero_to_one_is_refused_before_any_corner_is_solved():
                         "margin": {"delta": -0.1, "wedge": 0.0}}}
     with pytest.raises(ValueError, match=r"corner.dataset.margin .*fractions in \[0, 1\)"):
         train_surrogates(ccfg, None, 0, never)
+
+
+def test_surrogate_fits_in_worker_processes_equal_the_fits_in_this_one():
+    """FDLS / SDLS are fitted side by side in spawned workers (each seeds itself and runs the stage's
+    thread count): the weights and loss curves are the bits an in-process fit gives."""
+    from types import SimpleNamespace
+
+    import torch
+
+    from toolpath.corners.runs import _fit
+    from toolpath.pipeline.workers import pool_map
+
+    rng = np.random.default_rng(4)
+    samples = [SimpleNamespace(method1=rng.normal(size=(7, 2)), points=rng.normal(size=(7, 2)),
+                               weights=rng.uniform(0.5, 2.0, 7)) for _ in range(24)]
+    ccfg = {"threads": 1, "net": {"width": 8, "layers": 4, "every": 2, "dropout": 0.1},
+            "fdls": {"epochs": 3, "batch": 4, "lr": 0.005}, "sdls": {"epochs": 3, "batch": 8, "lr": 0.001}}
+    sets = [samples, samples[:12]]
+    threads = torch.get_num_threads()
+    try:
+        here = _fit(ccfg, sets, 7, lambda fn, jobs, label: [fn(job) for job in jobs])
+    finally:
+        torch.set_num_threads(threads)  # the in-process fit sets this process's count
+    apart = _fit(ccfg, sets, 7, lambda fn, jobs, label: pool_map(fn, jobs, 2, label))
+    for (nets, curves), (nets2, curves2) in zip(here, apart, strict=True):
+        assert curves == curves2
+        for name in ("fdls", "sdls"):
+            one, two = nets[name].state_dict(), nets2[name].state_dict()
+            assert all(torch.equal(one[k], two[k]) for k in one) and not nets2[name].training
+    assert here[0][1]["fdls"] != here[1][1]["fdls"]  # each set is fitted on its own samples

@@ -136,7 +136,8 @@ def fit(net: nn.Module, X: np.ndarray, Y: np.ndarray, epochs: int, batch: int, l
         Z_t = (Y_t - net.y_mean) / net.y_scale
     else:
         Z_t = Y_t
-    optimiser = torch.optim.Adam(net.parameters(), lr=lr)
+    # foreach: one kernel per step for all of the deep stack's parameters, the same numbers as the per-parameter loop
+    optimiser = torch.optim.Adam(net.parameters(), lr=lr, foreach=True)
     curve = []
     for _ in range(epochs):
         net.train()

@@ -57,29 +57,53 @@ def train_surrogates(ccfg: dict, settings: CornerSettings, seed: int, pool_map: 
                          "draw more or widen corner.pso")
     targets = [held_inside(s, settings.delta_max, margin["delta"], margin["wedge"],
                            surrogate_limit(s.corner, settings.delta_max)) for s in train]
-    nets, curves = _fit(ccfg, targets, seed)
-    held_out = (drawn[data["train"]:], solved[data["train"]:])
+    literal = bool(margin["delta"] or margin["wedge"])  # the paper's way too, for the record: what the margin buys
+    fitted = _fit(ccfg, [targets, train] if literal else [targets], seed, pool_map)
+    (nets, curves), held_out = fitted[0], (drawn[data["train"]:], solved[data["train"]:])
     trained = {"nets": nets, "curves": curves, "test": _test(nets, *held_out, settings), "train_size": len(train),
                "held_inside": sum(t is not s for t, s in zip(targets, train, strict=True)), "margin": margin,
                "pso_failures": sum(s is None for s, _ in solved)}
-    if margin["delta"] or margin["wedge"]:  # the paper's way, for the record: what the margin buys
-        trained["literal_test"] = _test(_fit(ccfg, train, seed)[0], *held_out, settings)
+    if literal:
+        trained["literal_test"] = _test(fitted[1][0], *held_out, settings)
     return trained
 
 
-def _fit(ccfg: dict, samples: list, seed: int) -> tuple[dict, dict]:
+NETS = ("fdls", "sdls")
+
+
+def _fit(ccfg: dict, sample_sets: list[list], seed: int, pool_map: PoolMap) -> list[tuple[dict, dict]]:
+    """FDLS and SDLS fitted on each set of samples: per set, (nets, loss curves).  The fits are independent
+    (each seeds its own initialisation and shuffling and runs on ``corner.threads`` threads in its process),
+    so they go through ``pool_map`` side by side, the FDLS fits (more steps: a smaller batch) first."""
+    from toolpath.corners.network import ResidualMLP, fdls_data, sdls_data
+
+    data = [{"fdls": fdls_data(samples), "sdls": sdls_data(samples)} for samples in sample_sets]
+    jobs = [(ccfg, name, *data[k][name], seed) for name in NETS for k in range(len(sample_sets))]
+    states = iter(pool_map(_fit_one, jobs, "corner: FDLS / SDLS"))
+    fitted: list[tuple[dict, dict]] = [({}, {}) for _ in sample_sets]
+    for name in NETS:
+        for k in range(len(sample_sets)):
+            state, curve = next(states)
+            X, Y = data[k][name]
+            net = ResidualMLP(X.shape[1], Y.shape[1], **ccfg["net"])
+            net.load_state_dict(state)
+            fitted[k][0][name], fitted[k][1][name] = net.eval(), curve
+    return fitted
+
+
+def _fit_one(job: tuple) -> tuple[dict, list[float]]:
+    """One network fitted (in a worker process): its weights and loss curve."""
     import torch
 
-    from toolpath.corners.network import ResidualMLP, fdls_data, fit, sdls_data
+    from toolpath.corners.network import ResidualMLP, fit
 
-    nets, curves = {}, {}
-    for name, (X, Y) in (("fdls", fdls_data(samples)), ("sdls", sdls_data(samples))):
-        torch.manual_seed(seed_for(seed, "corner", name))
-        net = ResidualMLP(X.shape[1], Y.shape[1], **ccfg["net"])
-        curves[name] = fit(net, X, Y, ccfg[name]["epochs"], ccfg[name]["batch"], ccfg[name]["lr"],
-                           seed_for(seed, "corner", name, "fit"))
-        nets[name] = net
-    return nets, curves
+    ccfg, name, X, Y, seed = job
+    torch.set_num_threads(ccfg["threads"])  # results are reproducible per thread count: the stage's, always
+    torch.manual_seed(seed_for(seed, "corner", name))
+    net = ResidualMLP(X.shape[1], Y.shape[1], **ccfg["net"])
+    curve = fit(net, X, Y, ccfg[name]["epochs"], ccfg[name]["batch"], ccfg[name]["lr"],
+                seed_for(seed, "corner", name, "fit"))
+    return net.state_dict(), curve
 
 
 def _test(nets: dict, drawn: list, solved: list, settings: CornerSettings) -> list[dict]:
