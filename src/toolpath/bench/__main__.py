@@ -1,6 +1,7 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube] [--threads N]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences]
+[--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
 time for a batch of 256 windows (median of interleaved repetitions after warm-up, torch threads
@@ -16,7 +17,9 @@ beside ArcWelder where it is given (:mod:`toolpath.bench.arcs`).  With ``--only 
 writes ``reports/bench/programs.json``: ``toolpath smooth`` on every program under DIR, each changed output
 checked by a reader written apart (:mod:`toolpath.bench.programs`).  With ``--only tube`` (about ten minutes a
 shape), writes ``reports/bench/tube_limit.json``: how far the tube lets any of our methods go on the optimize
-stage's windows (:mod:`toolpath.bench.tube_limit`).  Prints the tables.
+stage's windows (:mod:`toolpath.bench.tube_limit`).  Writes ``reports/bench/recurrences.json``: one tanh RNN
+layer as the ONNX ``RNN`` node, as the exporter's unrolled steps and as the fewest-node unrolled form, in
+both runtimes side by side (:mod:`toolpath.bench.recurrences`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -109,7 +112,8 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube"),
+    parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube",
+                                             "recurrences"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
@@ -125,6 +129,10 @@ def main(argv: list[str] | None = None) -> int:
         return _programs(args.programs, args.units)
     if args.only == "tube":
         return _tube(args.shapes or list(config.load().shapes))
+    if args.only in (None, "recurrences"):
+        _recurrences(args.threads, max(5, args.repeats // 3))
+        if args.only == "recurrences":
+            return 0
     if args.only in (None, "arcs"):
         _arcs(args.arcwelder)
         if args.only == "arcs":
@@ -238,6 +246,27 @@ def _runtimes(threads: int, repeats: int) -> int:
             print(f"{name}: {variant} could not run: {reason}")
     print(f"wrote {OUT / 'runtimes.json'}")
     return 0
+
+
+def _recurrences(threads: int, repeats: int) -> None:
+    from toolpath.bench.recurrences import measure
+
+    result = measure(threads, repeats)
+    write_json(result, OUT / "recurrences.json")
+    table = Table(title=f"one tanh RNN layer, batch 256, {threads} threads: the ONNX RNN node (native), the exporter's "
+                        f"unrolled steps, the fewest-node unrolled form (lean); ms (x speed of unrolled), median of "
+                        f"{repeats}")
+    for column in ("layer", "form", "nodes", "file kB", "ONNX Runtime", "OpenVINO"):
+        table.add_column(column, justify="right")
+    for name, layer in result["layers"].items():
+        for form in ("native", "unrolled", "lean"):
+            row = layer[form]
+            table.add_row(f"{name} ({layer['inputs']} -> {layer['hidden']}, {layer['steps']} steps)", form,
+                          str(row["nodes"]), f"{row['file_bytes'] / 1e3:,.0f}",
+                          *(f"{row[f'{rt}_ms']:.2f} ({row[f'{rt}_vs_unrolled']:.2f}x)" for rt in ("onnxruntime",
+                                                                                                  "openvino")))
+    Console().print(table)
+    print(f"wrote {OUT / 'recurrences.json'}")
 
 
 def _gcode() -> None:
