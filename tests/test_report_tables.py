@@ -88,13 +88,14 @@ def test_table4_shows_each_variants_throughput():
 
 
 
-def _forms(nodes: int, ratio: float, native_rate: float) -> dict:
+def _forms(nodes: int, ratio: float, native_rate: float, shipped_rate: float = 50_000.0) -> dict:
     def row(n: int, r: float, rate: float) -> dict:
         return {"nodes": n, "recurrent_nodes": 3, "file_bytes": 1e5, "bytes_vs_checkpoint": r,
                 "onnxruntime_windows_per_s": rate, "openvino_windows_per_s": rate,
                 "onnxruntime_max_logit_diff": 1e-6, "openvino_max_logit_diff": 2e-6,
-                "speed_vs_unrolled": {"onnxruntime": rate / 40_000, "openvino": rate / 40_000}}
-    return {"unrolled": row(500, 16.0, 40_000.0), "native": row(nodes, ratio, native_rate)}
+                "speed_vs_exporter": {"onnxruntime": rate / 40_000, "openvino": rate / 40_000}}
+    return {"shipped": row(300, 1.2, shipped_rate), "exporter": row(500, 16.0, 40_000.0),
+            "native": row(nodes, ratio, native_rate)}
 
 
 def test_table4d_gives_each_form_and_issue_45s_targets():
@@ -103,12 +104,18 @@ def test_table4d_gives_each_form_and_issue_45s_targets():
                                                     "mlp": {}}}
     table = speed.recurrent_forms(inference)
     native = {r[0]: r for r in table.rows if r[1] == "native"}
-    assert len(table.rows) == 4 and set(native) == {"mcrl", "rnn"}
-    assert native["mcrl"][-1].startswith("not met")  # 140 nodes, but 20,000 windows/s < 30,000
-    assert native["rnn"][-1].startswith("met") and "(0.50x)" in native["rnn"][5]
-    assert "unrolled form was faster" in table.notes[-1]
+    shipped = {r[0]: r for r in table.rows if r[1] == "shipped (lean)"}
+    assert len(table.rows) == 6 and set(native) == set(shipped) == {"mcrl", "rnn"}
+    # 140 nodes, but 0.5x the exporter's speed; the shipped file: 1.25x, with 300 nodes
+    assert native["mcrl"][-1] == "<= 150 nodes: met; ONNX Runtime >= 1.5x the exporter's unrolling: not met"
+    assert shipped["mcrl"][-1] == "<= 150 nodes: not met; ONNX Runtime >= 1.5x the exporter's unrolling: not met"
+    assert native["rnn"][-1].startswith("met") and "(0.50x)" in native["rnn"][5] and "(1.25x)" in shipped["rnn"][5]
+    assert "shipped form was faster than the native one" in table.notes[-1]
     inference["models"]["rnn"]["recurrent_forms"] = _forms(50, 1.3, 60_000.0)
-    assert "faster in this run for: rnn in ONNX Runtime" in speed.recurrent_forms(inference).notes[-1]
+    notes = speed.recurrent_forms(inference).notes
+    assert "faster than the shipped one in this run for: rnn in ONNX Runtime" in notes[-1]
+    inference["models"]["mcrl"]["recurrent_forms"] = _forms(140, 1.1, 20_000.0, shipped_rate=60_000.0)
+    assert speed.recurrent_forms(inference).rows[0][-1].endswith("exporter's unrolling: met")
     empty = speed.recurrent_forms({"setup": {"batch": 256}, "models": {"mlp": {}}})  # the smoke profile's
     assert not empty.rows and empty.notes == [
         "Not measured in this run: `benchmark.recurrent_forms` names none of the benchmarked models."]

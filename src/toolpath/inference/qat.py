@@ -29,6 +29,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from toolpath.inference.lean import lean_form
 from toolpath.models.rule import CLASSES as CATEGORIES
 from toolpath.models.training.classifier import from_checkpoint
 from toolpath.models.training.loop import EpochRecord, TrainSettings, fit_network, predict_logits
@@ -104,11 +105,13 @@ def conv1d_as_conv2d(net: nn.Module, keep: Sequence[str] = ()) -> nn.Module:
 
 
 def fp32_twin(net: nn.Module, float_modules: Sequence[str] = (), quantize_conv1d: bool = False) -> nn.Module:
-    """``net`` in the graph form :func:`prepare` gives its INT8 graph (with ``quantize_conv1d``, every 1-D
-    convolution outside ``float_modules`` computed as 2-D): the same function, so that FP32 and INT8 are
+    """``net`` in the graph form :func:`prepare` gives its INT8 graph (its lean form,
+    :func:`toolpath.inference.lean.lean_form`; with ``quantize_conv1d``, every 1-D convolution outside
+    ``float_modules`` computed as 2-D): the same function, so that FP32 and INT8 are
     timed as the same graph differing only in precision.  ONNX Runtime runs a grouped 1-D convolution by a
     generic path 4-5x slower than the 2-D one: against the 1-D FP32 file ConvMixer's INT8 file looked 2.8x
     faster, against this twin it is not faster at all."""
+    net = lean_form(net)
     return conv1d_as_conv2d(net, keep=float_modules).eval() if quantize_conv1d else net.eval()
 
 
@@ -148,7 +151,7 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
         get_default_x86_inductor_quantization_config,
     )
 
-    net.eval()
+    net = lean_form(net.eval())  # the graph form the ONNX runtimes run fastest (toolpath.inference.lean)
     if quantize_conv1d:
         net = conv1d_as_conv2d(net, keep=float_modules).eval()
     class Quantizer(X86InductorQuantizer):

@@ -1,14 +1,16 @@
-"""Recurrent layers exported as ONNX recurrences (the opset's ``RNN`` node), beside the unrolled graph.
+"""Recurrent layers exported as ONNX recurrences (the opset's ``RNN`` node), or step by step in the fewest nodes.
 
 torch's ONNX exporter writes ``nn.LSTM`` as one ``LSTM`` node but has no translation for the tanh RNN
-(``aten.rnn_tanh``): it decomposes it into one MatMul / Add / Tanh chain per time step, 50 steps x 3
-layers for the RNN baseline, so its file is many times its checkpoint (Table 4d).  :data:`TRANSLATIONS` maps
-``aten.rnn_tanh`` to the ONNX ``RNN`` operator, and :func:`native_form` gives MCRL's first RNN (a
+(``aten.rnn_tanh``): it decomposes it into MatMul / Add / Add / Tanh per time step, with copies of the
+weights, so the RNN baseline's file was many times its checkpoint (Table 4d).  :data:`STEPWISE`, the
+translation every export here uses (:func:`toolpath.inference.runtimes.export_onnx`), writes the steps
+out in the fewest nodes with one copy of each weight; :data:`TRANSLATIONS` maps ``aten.rnn_tanh`` to
+the ONNX ``RNN`` operator, and :func:`native_form` gives MCRL's first RNN (a
 :class:`~toolpath.models.mcrl.ContextRNN`, whose hoisted recurrence is a Python loop) a form the exporter
-sees as one ``nn.RNN`` on the fused input.  Both are the same function as the network (the benchmark
+sees as one ``nn.RNN`` on the fused input.  Every form is the same function as the network (the benchmark
 checks the logits).  Which form runs faster is a property of each runtime's kernels, so the benchmark
-times both side by side (Table 4d); the shipped files keep the unrolled form, and Table 4d's note says
-when a run finds the native one faster.
+times them side by side (Table 4d, beside the shipped lean form of :mod:`toolpath.inference.lean`), and
+Table 4d's note says when a run finds the native one faster.
 """
 
 from __future__ import annotations
@@ -42,7 +44,33 @@ def _rnn_tanh(input, hx, params, has_biases: bool, num_layers: int, dropout: flo
     return (op.Transpose(y, perm=[1, 0, 2]) if batch_first else y), y_last
 
 
+def _rnn_tanh_stepwise(input, hx, params, has_biases: bool, num_layers: int, dropout: float,  # noqa: A002
+                       train: bool, bidirectional: bool, batch_first: bool):
+    """``aten.rnn_tanh.input`` (one forward layer) written out step by step in the fewest nodes: the input
+    projection of every step as one Gemm (both biases in it), then per step one Gemm taking that step's
+    projection as its bias input, ``H_t = tanh(H_{t-1} R^T + P_t)``, and one copy of each weight."""
+    from onnxscript import opset18 as op
+
+    if num_layers != 1 or bidirectional or not has_biases:
+        raise NotImplementedError("only one-layer, one-direction tanh RNNs with biases are written out")
+    w_ih, w_hh, b_ih, b_hh = params[:4]
+    x = input if batch_first else op.Transpose(input, perm=[1, 0, 2])  # (batch, steps, features)
+    steps, hidden = x.shape[1], w_hh.shape[0]  # steps: static, as the windows' length is
+    points = op.Reshape(x, op.Constant(value_ints=[-1, w_ih.shape[1]]))
+    projected = op.Gemm(points, w_ih, op.Add(b_ih, b_hh), transB=1)
+    projected = op.Reshape(projected, op.Constant(value_ints=[-1, steps, hidden]))
+    h = op.Squeeze(hx, op.Constant(value_ints=[0]))  # (directions = 1, batch, hidden) -> (batch, hidden)
+    outputs = []
+    for t in range(steps):
+        h = op.Tanh(op.Gemm(h, w_hh, op.Gather(projected, op.Constant(value_int=t), axis=1), transB=1))
+        outputs.append(h)
+    y = op.Reshape(op.Concat(*outputs, axis=1), op.Constant(value_ints=[-1, steps, hidden]))
+    return (y if batch_first else op.Transpose(y, perm=[1, 0, 2])), op.Unsqueeze(h, op.Constant(value_ints=[0]))
+
+
 TRANSLATIONS: dict[Callable, Callable] = {torch.ops.aten.rnn_tanh.input: _rnn_tanh}
+# the default of every export (toolpath.inference.runtimes.export_onnx): tanh RNNs step by step, lean
+STEPWISE: dict[Callable, Callable] = {torch.ops.aten.rnn_tanh.input: _rnn_tanh_stepwise}
 
 
 class FusedInputRNN(nn.RNN):
@@ -80,21 +108,25 @@ def graph_nodes(path: Path) -> dict:
 
 def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: Path, batch: Tensor,
                   time_runners: Callable[[dict], dict], runner: Callable[[Path, str], Callable]) -> dict:
-    """The exported FP32 ``net`` in its forms: ``unrolled``, the shipped file (``shipped_file``, exported
-    already); ``native``, its recurrences as ONNX nodes; and, for a network with a :class:`ContextRNN`,
-    ``unhoisted``, that layer unrolled with the input projection of the fused input at every step (the
-    form before the hoist), the last two exported here into ``folder``.  Per form: bytes and their ratio
-    to the ``checkpoint``, nodes, the largest logit difference from the torch network on ``batch``, windows
-    per second in every runtime, all timed by one ``time_runners({name: fn})`` call (interleaved, so the
-    ratios are side by side), and ``speed_vs_unrolled`` per runtime.  ``runner(path, runtime)`` opens a file."""
+    """The exported FP32 ``net`` in its forms: ``shipped``, the file the benchmark times (``shipped_file``,
+    exported already in the lean form, :mod:`toolpath.inference.lean`); ``exporter``, ``net`` as torch's
+    exporter unrolls it (the form shipped before the lean one); ``native``, its recurrences as ONNX nodes;
+    and, for a network with a :class:`ContextRNN`, ``unhoisted``, that layer unrolled with the input
+    projection of the fused input at every step (the form before the hoist), the last three exported here
+    into ``folder``.  Per form: bytes and their ratio to the ``checkpoint``, nodes, the largest logit
+    difference from the torch network on ``batch``, windows per second in every runtime, all timed by one
+    ``time_runners({name: fn})`` call (interleaved, so the ratios are side by side), and
+    ``speed_vs_exporter`` per runtime.  ``runner(path, runtime)`` opens a file."""
     from toolpath.inference.runtimes import RUNTIMES, export_onnx
 
     plain = native_form(net)
-    forms = {"unrolled": shipped_file, "native": folder / f"{shipped_file.stem}.native.onnx"}
+    forms = {"shipped": shipped_file, "exporter": folder / f"{shipped_file.stem}.exporter.onnx",
+             "native": folder / f"{shipped_file.stem}.native.onnx"}
+    export_onnx(net, batch[:2], forms["exporter"], translations={})
     export_onnx(plain, batch[:2], forms["native"], translations=TRANSLATIONS)
     if any(isinstance(m, ContextRNN) for m in net.modules()):
         forms["unhoisted"] = folder / f"{shipped_file.stem}.unhoisted.onnx"
-        export_onnx(plain, batch[:2], forms["unhoisted"])
+        export_onnx(plain, batch[:2], forms["unhoisted"], translations={})
     with torch.inference_mode():
         reference = net.eval()(batch).numpy()
     runners = {f"{form}_{rt}": runner(path, rt) for form, path in forms.items() for rt in RUNTIMES}
@@ -107,6 +139,6 @@ def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: 
             logits = runners[f"{form}_{rt}"](batch.numpy())
             row[f"{rt}_max_logit_diff"] = float(np.abs(logits - reference).max())
             row[f"{rt}_windows_per_s"] = len(batch) / seconds[f"{form}_{rt}"]
-            row.setdefault("speed_vs_unrolled", {})[rt] = seconds[f"unrolled_{rt}"] / seconds[f"{form}_{rt}"]
+            row.setdefault("speed_vs_exporter", {})[rt] = seconds[f"exporter_{rt}"] / seconds[f"{form}_{rt}"]
         out[form] = row
     return out

@@ -28,9 +28,13 @@ def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: 
                 translations: dict | None = None) -> int:
     """``model`` (a network, or an exported program such as a QAT INT8 graph) as one ONNX file with a
     dynamic batch dimension; returns its size in bytes.  The same model gives the same bytes.
-    ``translations``: ONNX translations of torch ops beside the exporter's own (e.g.
-    :data:`toolpath.inference.recurrences.TRANSLATIONS`)."""
+    ``translations``: ONNX translations of torch ops beside the exporter's own; by default
+    :data:`toolpath.inference.recurrences.STEPWISE` (tanh RNNs step by step, lean), ``{}`` for the
+    exporter's own (e.g. :data:`toolpath.inference.recurrences.TRANSLATIONS`: RNN nodes)."""
     import logging
+
+    if translations is None:
+        from toolpath.inference.recurrences import STEPWISE as translations
 
     logging.getLogger("torch.onnx").setLevel(logging.ERROR)  # "torchvision is not installed", per export
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -41,10 +45,20 @@ def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: 
             program = model
         else:
             program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
-        # weights inside the one file (the exporter's default puts them in a .data file beside it)
-        torch.onnx.export(program, f=str(path), dynamo=True, input_names=["windows"], output_names=["logits"],
-                          external_data=False, verbose=False, custom_translation_table=translations)
+        exported = torch.onnx.export(program, dynamo=True, input_names=["windows"], output_names=["logits"],
+                                     verbose=False, custom_translation_table=translations)
+    _strip_provenance(exported.model)
+    exported.save(str(path), external_data=False)  # the weights inside the one file
     return path.stat().st_size
+
+
+def _strip_provenance(model) -> None:
+    """Drop each node's provenance (the torch op, module path and Python stack trace it came from): a
+    debugging aid of several hundred bytes a node, most of an unrolled recurrence's file, whose stack
+    traces name this checkout's absolute paths (so a file would differ from one clone to another)."""
+    for node in model.graph.all_nodes():
+        node.metadata_props.clear()
+        node.doc_string = None
 
 
 def load_int8_program(path: Path) -> torch.export.ExportedProgram:

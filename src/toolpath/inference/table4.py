@@ -9,7 +9,7 @@ from pathlib import Path
 
 import torch
 
-from toolpath.inference.qat import fp32_twin
+from toolpath.inference.qat import conv1d_as_conv2d, fp32_twin
 from toolpath.inference.recurrences import compare_forms, graph_nodes, has_recurrence
 from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile, runner
 from toolpath.inference.timing import timed
@@ -62,10 +62,11 @@ def draw_inputs(pool: torch.Tensor, batch: int, large: int | None, seed: int) ->
 
 def recurrent_forms(net: torch.nn.Module, checkpoint: Path, fp32_onnx: Path, float_modules, quantize_conv1d: bool,
                     batch: torch.Tensor, bcfg: dict) -> dict | None:
-    """A recurrent network's FP32 file with its tanh RNNs as ONNX ``RNN`` nodes beside the shipped,
-    unrolled one (:func:`toolpath.inference.recurrences.compare_forms`, timed like Table 4); None for
-    a network without recurrences."""
-    twin = fp32_twin(net, float_modules, quantize_conv1d)
+    """A recurrent network's FP32 file in the exporter's own unrolling and with its tanh RNNs as ONNX ``RNN``
+    nodes, beside the shipped lean one (:func:`toolpath.inference.recurrences.compare_forms`, timed like
+    Table 4); None for a network without recurrences."""
+    # the forms beside the shipped file start from the network before its lean form
+    twin = conv1d_as_conv2d(net, keep=float_modules).eval() if quantize_conv1d else net.eval()
     if not has_recurrence(twin):
         return None
 
