@@ -6,8 +6,8 @@ bias by a broadcast that walks the last axis C elements at a time: most of the t
 Add / Add / Tanh chains and ONNX Runtime's own ``RNN`` kernel is slower still (``make bench``:
 ``reports/bench/recurrences.json``).  :func:`lean_form` swaps, in a copy of the network, the forward of
 
-* MCRL's branches and their ReLU linear attention: every linear layer on the flattened (B * L, C)
-  points, one Gemm with its bias inside;
+* the linear layers of MCRL's branches and of their ReLU linear attention: on the flattened
+  (B * L, C) points, one Gemm with its bias inside (:class:`PointwiseLinear`);
 * MCRL's :class:`~toolpath.models.mcrl.ContextRNN`: the input projection of all steps as one Gemm,
   then per step one Gemm whose bias input is that step's projection, and its Tanh (which ONNX Runtime
   fuses into the Gemm); the first step has no recurrent product (``h_0 = 0``).
@@ -32,9 +32,14 @@ from toolpath.models.attention import ReLULinearAttention
 from toolpath.models.mcrl import ContextRNN, _Branch
 
 
-def _pointwise(layer: nn.Linear, x: Tensor) -> Tensor:
-    """``layer`` on every point of a (B, L, C) sequence, called as a module on the (B * L, C) points."""
-    return layer(x.reshape(-1, x.shape[-1])).reshape(*x.shape[:-1], layer.out_features)
+class PointwiseLinear(nn.Linear):
+    """``nn.Linear`` on a (B, L, C) sequence as one product over its (B * L, C) points (a Gemm, its bias
+    inside); on (B, C) as before."""
+
+    def forward(self, x: Tensor) -> Tensor:
+        if x.dim() <= 2:
+            return super().forward(x)
+        return super().forward(x.reshape(-1, x.shape[-1])).reshape(*x.shape[:-1], self.out_features)
 
 
 def _recurrence(driven: Tensor, weight_hh: Tensor) -> Tensor:
@@ -48,31 +53,6 @@ def _recurrence(driven: Tensor, weight_hh: Tensor) -> Tensor:
     return torch.cat(outputs, dim=1).reshape(batch, steps, hidden)
 
 
-class LeanAttention(ReLULinearAttention):
-    """:class:`~toolpath.models.attention.ReLULinearAttention` with its projections on the flattened points."""
-
-    def forward(self, x: Tensor) -> Tensor:
-        q = _pointwise(self.query, x).relu()
-        k = _pointwise(self.key, x).relu()
-        v = _pointwise(self.value, x)
-        kv = k.transpose(1, 2) @ v
-        norm = (q @ k.sum(dim=1, keepdim=True).transpose(1, 2)).clamp_min(self.eps)
-        return x + (q @ kv) / norm
-
-
-class LeanBranch(_Branch):
-    """MCRL's branch with its first linear layer on the flattened points (its attention is swapped apart)."""
-
-    def forward(self, x: Tensor) -> Tensor:
-        y = _pointwise(self.linear, x)
-        if y.shape[1] != self.points:
-            y = y.transpose(1, 2)
-            y = F.adaptive_avg_pool1d(y, self.points) if self.resample == "area" else \
-                F.interpolate(y, size=self.points, mode="linear", align_corners=True)
-            y = y.transpose(1, 2)
-        return self.attention(y)
-
-
 class LeanContextRNN(ContextRNN):
     """:class:`~toolpath.models.mcrl.ContextRNN` as :func:`_recurrence` (its hoisted constant as before)."""
 
@@ -83,16 +63,26 @@ class LeanContextRNN(ContextRNN):
         return _recurrence(driven.reshape(batch, steps, -1) + constant[:, None, :], self.weight_hh_l0)
 
 
-_LEAN = {ReLULinearAttention: LeanAttention, _Branch: LeanBranch, ContextRNN: LeanContextRNN}
+def _lean_class(module: nn.Module, parent: nn.Module | None) -> type | None:
+    """The lean class of ``module`` (a child of ``parent``), or None."""
+    if type(module) is ContextRNN:
+        return LeanContextRNN
+    if type(module) is nn.Linear and type(parent) in (_Branch, ReLULinearAttention):
+        return PointwiseLinear
+    return None
+
+
+def _swaps(net: nn.Module) -> list[tuple[nn.Module, type]]:
+    return [(child, lean) for parent in net.modules() for child in parent.children()
+            if (lean := _lean_class(child, parent)) is not None]
 
 
 def lean_form(net: nn.Module) -> nn.Module:
     """A copy of ``net`` in the lean form (see the module docstring); ``net`` itself when it has none of
     the modules it rewrites."""
-    if not any(type(module) in _LEAN for module in net.modules()):
+    if not _swaps(net):
         return net
     net = copy.deepcopy(net)
-    for module in net.modules():
-        if (lean := _LEAN.get(type(module))) is not None:
-            module.__class__ = lean
+    for module, lean in _swaps(net):
+        module.__class__ = lean
     return net
