@@ -25,3 +25,22 @@ def test_lean_form_is_the_network_with_its_names_and_parameters(fuse):
 def test_a_network_without_those_modules_is_returned_as_it_is(build):
     net = build()
     assert lean_form(net) is net
+
+
+def _quantized_linears(prepared: torch.fx.GraphModule) -> int:
+    """Linear ops whose weight passes a fake quantizer (the x86 quantizer annotated them INT8)."""
+    return sum(1 for node in prepared.graph.nodes
+               if node.op == "call_function" and "linear" in str(node.target)
+               and isinstance(node.args[1], torch.fx.Node) and node.args[1].op == "call_module"
+               and "activation_post_process" in str(node.args[1].target))
+
+
+def test_qat_quantizes_the_same_layers_in_the_lean_form(monkeypatch):
+    from toolpath.inference import qat
+
+    torch.manual_seed(4)
+    net, x = MCRL(fuse="output").eval(), torch.randn(4, 50, 2).cumsum(1)
+    float_modules = ["prepare", *(f"branches.{i}.linear" for i in range(4))]  # as conf/qat/default.yaml
+    lean = _quantized_linears(qat.prepare(net, x, float_modules))
+    monkeypatch.setattr(qat, "lean_form", lambda network: network)
+    assert lean == _quantized_linears(qat.prepare(net, x, float_modules)) > 0

@@ -7,7 +7,7 @@ Add / Add / Tanh chains and ONNX Runtime's own ``RNN`` kernel is slower still (`
 ``reports/bench/recurrences.json``).  :func:`lean_form` swaps, in a copy of the network, the forward of
 
 * the linear layers of MCRL's branches and of their ReLU linear attention: on the flattened
-  (B * L, C) points, one Gemm with its bias inside (:class:`PointwiseLinear`);
+  (B * L, C) points, one Gemm with its bias inside (:class:`PointwiseLinear`, :class:`LeanAttention`);
 * MCRL's :class:`~toolpath.models.mcrl.ContextRNN`: the input projection of all steps as one Gemm,
   then per step one Gemm whose bias input is that step's projection, and its Tanh (which ONNX Runtime
   fuses into the Gemm); the first step has no recurrent product (``h_0 = 0``).
@@ -53,6 +53,21 @@ def _recurrence(driven: Tensor, weight_hh: Tensor) -> Tensor:
     return torch.cat(outputs, dim=1).reshape(batch, steps, hidden)
 
 
+class LeanAttention(ReLULinearAttention):
+    """:class:`~toolpath.models.attention.ReLULinearAttention` with its projections on the flattened points.
+    Its projections stay plain ``nn.Linear`` modules, called on (B * L, C): the x86 quantizer annotates a
+    linear by its module type, so they stay INT8 as before (a :class:`PointwiseLinear` would be left float)."""
+
+    def forward(self, x: Tensor) -> Tensor:
+        def pointwise(layer: nn.Linear) -> Tensor:
+            return layer(x.reshape(-1, x.shape[-1])).reshape(*x.shape[:-1], layer.out_features)
+
+        q, k, v = pointwise(self.query).relu(), pointwise(self.key).relu(), pointwise(self.value)
+        kv = k.transpose(1, 2) @ v
+        norm = (q @ k.sum(dim=1, keepdim=True).transpose(1, 2)).clamp_min(self.eps)
+        return x + (q @ kv) / norm
+
+
 class LeanContextRNN(ContextRNN):
     """:class:`~toolpath.models.mcrl.ContextRNN` as :func:`_recurrence` (its hoisted constant as before)."""
 
@@ -64,10 +79,13 @@ class LeanContextRNN(ContextRNN):
 
 
 def _lean_class(module: nn.Module, parent: nn.Module | None) -> type | None:
-    """The lean class of ``module`` (a child of ``parent``), or None."""
+    """The lean class of ``module`` (a child of ``parent``), or None.  MCRL's branch linear is float in QAT
+    (``qat.float_modules``), so the x86 quantizer not knowing :class:`PointwiseLinear` changes nothing."""
     if type(module) is ContextRNN:
         return LeanContextRNN
-    if type(module) is nn.Linear and type(parent) in (_Branch, ReLULinearAttention):
+    if type(module) is ReLULinearAttention:
+        return LeanAttention
+    if type(module) is nn.Linear and type(parent) is _Branch:
         return PointwiseLinear
     return None
 
