@@ -25,7 +25,7 @@ from toolpath.reports import (
     summary,
 )
 from toolpath.reports.document import Section
-from toolpath.reports.paper import TABLE5_CORRECT
+from toolpath.reports.paper import PAPER_SHAPE_FIGURES, TABLE5_CORRECT
 from toolpath.reports.speed import int8_gains, int8_profile, recurrent_forms, table4
 from toolpath.reports.tables import (
     INPUT_BLOCKS,
@@ -287,12 +287,16 @@ class Report:
             parts.append(self.figure(smoothing.methods_figure(cases, mode), "fig8_methods",
                                      "Fig. 8: one drawn window per shape (" + "; ".join(drawn)
                                      + "), the original (black) and every method"))
-        for number, (s, d) in enumerate(data.items(), start=9):
-            picked = smoothing.pick_window(in_mode[s], rcfg.figure_category, False, seed)
+        for s, number in PAPER_SHAPE_FIGURES.items():  # a shape keeps its number, in any profile
+            picked = None if s not in data else smoothing.pick_window(in_mode[s], rcfg.figure_category, False, seed)
             if picked is None:
-                parts.append(f"Fig. {number}: no smoothed {s} window in the sample.\n")
+                why = (f"{s} is not among this profile's shapes" if s not in data
+                       else f"no smoothed {s} window in the sample")
+                parts.append(self.figure(smoothing.notice_figure(f"Fig. {number}: {why}."), f"fig{number}_{s}",
+                                         f"Fig. {number}: {why}"))
                 continue
             window, category = picked
+            d = data[s]
             stats = d["metrics"]["methods"][mode]["plain"]
             results = smoothing.window_results(d["smoothed"], window, smoothing.PAPER_METHODS, mode)
             mean = {m: stats[m]["mean_reduction_pct"] for m in results}

@@ -8,6 +8,9 @@ Sec. 5.2.4; then Xie & Zhu's Table 1 and the NURBS corner paper's figures.  Type
 
 from __future__ import annotations
 
+# Figs. 9-11: each shape's smoothing drawn before and after, one figure per shape
+PAPER_SHAPE_FIGURES = {"gear": 9, "pentagram": 10, "maple_leaf": 11}
+
 TABLE3_COLUMNS = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 TABLE3 = {
     "gear": {

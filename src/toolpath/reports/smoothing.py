@@ -116,6 +116,13 @@ def before_after_figure(shape: str, original: np.ndarray, results: Mapping[str, 
     return fig
 
 
+def notice_figure(text: str) -> Figure:
+    """A figure that says why its drawing is absent: the file DVC declares still exists and says so."""
+    fig = plt.figure(figsize=(6.0, 1.2), dpi=120)
+    fig.text(0.5, 0.5, text, ha="center", va="center", fontsize=9, wrap=True)
+    return fig
+
+
 def tradeoff_figure(rows: Mapping[str, Sequence[Mapping[str, str]]]) -> Figure:
     """Ours: curvature reduction against the two-sided distance from the original, per method and
     mode (small dots per window, a large marker for the mean), pooled over shapes."""
