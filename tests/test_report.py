@@ -31,7 +31,7 @@ def _metrics(accuracy: float) -> dict:
 @pytest.fixture
 def partial(tmp_path, monkeypatch, mlflow_store):
     """A smoke profile whose label and train metrics exist and nothing else."""
-    config.compose(["+experiment=smoke"], root=REPO, output=tmp_path / "params.yaml")
+    config.compose(["+experiment=smoke", f"shapes=[{','.join(SHAPES)}]"], root=REPO, output=tmp_path / "params.yaml")
     (tmp_path / "README.md").write_text(f"# x\n\n{README_BEGIN}\nold\n{README_END}\n\nafter\n")
     for k, shape in enumerate(SHAPES):
         label = {"class_count": {"1": 60, "2": 20, "3": 15, "4": 5}, "windows": 100,

@@ -19,27 +19,27 @@ def smoke_dir(tmp_path, monkeypatch, mlflow_store):
 
 
 def test_generate_writes_programs_windows_metrics_and_mlflow_runs(smoke_dir):
-    generate.main(["--shape", "pentagram"])
-    files = sorted((smoke_dir / "data/gcode/pentagram").glob("*.nc"))
+    generate.main(["--shape", "maple_leaf"])
+    files = sorted((smoke_dir / "data/gcode/maple_leaf").glob("*.nc"))
     assert len(files) == 4
-    first, windows_file = files[0].read_bytes(), smoke_dir / "data/windows/pentagram.npz"
+    first, windows_file = files[0].read_bytes(), smoke_dir / "data/windows/maple_leaf.npz"
     first_windows = windows_file.read_bytes()
-    generate.main(["--shape", "pentagram"])  # same seed, same bytes
+    generate.main(["--shape", "maple_leaf"])  # same seed, same bytes
     assert files[0].read_bytes() == first and windows_file.read_bytes() == first_windows
     data = np.load(windows_file)
     assert set(data.files) >= {"windows", "origin", "local_curvature", "label", "program", "first_line", "split"}
     n = len(data["label"])
     assert data["windows"].shape == (n, 50, 2) and data["windows"].dtype == np.float32
     assert set(np.unique(data["split"]).tolist()) <= {0, 1, 2}
-    metrics = json.loads((smoke_dir / "reports/metrics/label/pentagram.json").read_text())
+    metrics = json.loads((smoke_dir / "reports/metrics/label/maple_leaf.json").read_text())
     assert metrics["windows"] == n and sum(metrics["class_count"].values()) == n
     assert set(metrics["local_curvature"]) == {"q05", "q25", "q50", "q75", "q95"}
     runs = mlflow.search_runs(experiment_names=["cnc-curvature"], output_format="list")
     names = sorted(r.info.run_name for r in runs)
-    assert names.count("generate@pentagram") == 2
+    assert names.count("generate@maple_leaf") == 2
     parents = {r.data.tags.get("mlflow.parentRunId") for r in runs if r.info.run_name.startswith("gen")}
     assert len(parents) == 1 and None not in parents  # every stage run nests under one pipeline run
-    child = next(r for r in runs if r.info.run_name == "generate@pentagram")
+    child = next(r for r in runs if r.info.run_name == "generate@maple_leaf")
     assert child.data.metrics["label.windows"] == n and child.data.metrics["generate.programs"] == 4
     assert child.info.status == "FINISHED" and child.data.params["label.window"] == "50"
 
@@ -63,7 +63,7 @@ def _trained(smoke_dir, shape, model):
 
 
 def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
-    for shape in ("gear", "pentagram", "maple_leaf"):
+    for shape in ("gear", "maple_leaf"):  # the smoke profile's shapes
         generate.main(["--shape", shape])
     metrics = _trained(smoke_dir, "maple_leaf", "mlp")
     first = (smoke_dir / "reports/metrics/train/mlp/maple_leaf.json").read_bytes()
@@ -85,7 +85,7 @@ def test_train_stage_writes_metrics_curves_model_and_mlflow_epochs(smoke_dir):
     curves = (smoke_dir / "reports/plots/train/mlp/maple_leaf.csv").read_text().splitlines()
     assert curves[0] == "epoch,lr,train_loss,train_accuracy,val_loss,val_accuracy" and len(curves) == 3
     assert {p.name for p in (smoke_dir / "models/fp32/mlp").iterdir()} == \
-        {f"{s}.{ext}" for s in ("gear", "pentagram", "maple_leaf") for ext in ("pt", "test.npz")}
+        {f"{s}.{ext}" for s in ("gear", "maple_leaf") for ext in ("pt", "test.npz")}
     saved = np.load(smoke_dir / "models/fp32/mlp/maple_leaf.test.npz")  # every seed's test predictions
     assert saved["predicted"].shape == (2, test_windows) and saved["degenerate"].shape == (2,)
     client = mlflow.MlflowClient()
