@@ -20,8 +20,9 @@ CORPUS = REPO.parent / "shared" / "gcode-corpus"
 
 
 def polygon_program(segments: int, radius: float = 10.0, units: str = "G21", decimals: int = 3,
-                    tail: str = "X-10 Y-5") -> str:
-    """A lead-in, a half circle as ``segments`` G1 lines (N and F words on the first), a modal G1, the end."""
+                    tail: str = "X-5 Y-5") -> str:
+    """A lead-in, a half circle as ``segments`` G1 lines (N and F words on the first), a modal G1 turning
+    away (no arc, however flat, continues the circle into it), the end."""
     t = np.linspace(0.0, math.pi, segments + 1)
     pts = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
     lines = [f"{units} G90 G17", f"G0 X{pts[0, 0] + radius / 20:.{decimals}f} Y0", "(contour)",
@@ -112,7 +113,7 @@ def test_the_whole_band_is_used():
 
 
 def test_inch_programs_get_inch_numbers():
-    text = polygon_program(180, radius=0.5, units="G20", decimals=4, tail="X-0.5 Y-0.2")
+    text = polygon_program(180, radius=0.5, units="G20", decimals=4, tail="X-0.3 Y-0.2")
     program = read_text(text)
     out, arcs, _, _, _ = weld_arcs(program, program, 0.01)
     assert len(arcs) == 1
@@ -342,3 +343,20 @@ def test_the_search_skips_only_ends_it_cannot_improve(seed, monkeypatch):
             k = int(came[k])
     assert len(chosen) >= 3
     assert chosen == plain[::-1]
+
+
+def test_a_straight_edge_in_noisy_steps_with_a_repeated_corner_becomes_one_arc():
+    """A PCB edge as tinyg_hacdc.gcode cuts it: nine steps straight within 0.1 um of noise (no stable
+    algebraic centre), the corner repeated by a move to where the tool stands.  The flattest arc allowed
+    lies within the band; the repeated corner is passed over and takes a written G1."""
+    edge = ["X3.4000Y8.9431", "X3.4055Y8.9268", "X3.4109Y8.9105", "X3.4163Y8.8941", "X3.4216Y8.8777",
+            "X3.4270Y8.8612", "X3.4323Y8.8448", "X3.4377Y8.8284", "X3.4431Y8.8121", "X3.4486Y8.7958"]
+    text = "\n".join(["G21 G90", "G0 X3.4000Y8.9431", "G1 Z-0.005 F100", *edge, "X3.4486Y8.7958",
+                      "G0 Z1", "M30"]) + "\n"
+    program = read_text(text)
+    out, arcs, _, _, _ = weld_arcs(program, program, 0.01)
+    assert len(arcs) == 1 and arcs[0].radius_mm > 1000.0
+    lines = out.splitlines()
+    assert lines[4].startswith("G2 X3.4486 Y8.7958 ") and lines[5] == "G1 X3.4486Y8.7958"
+    assert lines[:4] == text.splitlines()[:4] and lines[6:] == ["G0 Z1", "M30"]
+    assert _deviation(text, out, chord=1e-5) <= 0.01

@@ -160,9 +160,13 @@ def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, end: int, bud
     least = np.einsum("bjk,bjk->bj", a, miss) / np.maximum(np.einsum("bjk,bjk->bj", a, a), 1e-300)
     half = length / 2.0
     minimax = _golden(a, miss, inner, least, half)
+    # a run straight within its noise (a CAM's straight edge cut in steps) has no stable algebraic centre:
+    # the flattest arc allowed, bulging the way its points do, may still lie within the band
+    reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half ** 2, 0.0))
+    flattest = -np.sign(np.where(inner, along, 0.0).sum(axis=-1)) * reach
     fits = np.zeros(least.shape, bool)
     centre = np.zeros(least.shape + (2,))
-    for t in (minimax, least):  # least squares wins where both fit
+    for t in (flattest, minimax, least):  # least squares wins where it fits, then the minimax centre
         c = chord / 2.0 + t[..., None] * normal
         bound = _bound(chain, starts, index, p, o, c, j)
         radius = np.hypot(c[..., 0], c[..., 1])

@@ -84,9 +84,12 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
     # |q - c|^2 = |c|^2 (through the start, at 0) is linear in c: 2 q.c = |q|^2; with c = mid + t normal
     a = 2.0 * inner @ normal
     b = np.einsum("ij,ij->i", inner, inner) - 2.0 * inner @ mid
-    if float(a @ a) < 1e-18:
+    if centre is not None:
+        centre = np.asarray(centre) - origin
+    elif float(a @ a) < 1e-18:
         return None  # the points lie on the chord: a straight line
-    centre = mid + normal * float(a @ b) / float(a @ a) if centre is None else np.asarray(centre) - origin
+    else:
+        centre = mid + normal * float(a @ b) / float(a @ a)
     radius = float(np.hypot(*centre))
     if not math.isfinite(radius) or radius > MAX_RADIUS:
         return None
@@ -112,7 +115,8 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
     plunge, stay), with no block delete or comment, an F word only on the first, none read past blind
     (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands before and after each the same
     with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``: the line
-    after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's)."""
+    after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's, or is a bare G1 line that
+    moves nowhere, which may be given a ``G1``)."""
     movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
     stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
@@ -123,7 +127,10 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
             line = int(lines[k])
             replaceable[k] = bool(movable[line - 1]) and program.states[line].absolute \
                 and bool(stable[line]) and bool(stable[line - 1])
-            joined[k] = line == int(lines[k - 1]) + 1
+            # lines between two points are plain G1 moves to where the tool stands (a CAM's repeated corner):
+            # an arc passes over them as over the lines it replaces
+            joined[k] = all(bool(movable[gap - 1]) and program.states[gap].absolute and bool(stable[gap])
+                            and not _has_feed(program, gap) for gap in range(int(lines[k - 1]) + 1, line))
         k = 1
         while k < len(lines):
             if not replaceable[k]:
@@ -133,7 +140,9 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
             while k < len(lines) and replaceable[k] and joined[k] and not _has_feed(program, int(lines[k])):
                 k += 1
             after = int(lines[k - 1]) + 1
-            out.append((xy, lines, i, k - 1, after > len(program.lines) or _sets_motion(program, after)))
+            # a bare plain G1 line after it (one that moves nowhere, so in no run) takes a written G1 as well
+            out.append((xy, lines, i, k - 1, after > len(program.lines) or _sets_motion(program, after)
+                        or (bool(movable[after - 1]) and program.states[after].absolute)))
     return out
 
 
