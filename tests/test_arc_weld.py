@@ -300,7 +300,8 @@ def test_the_screen_measures_each_arc_as_the_scalar_bound_does(seed, noise, deci
     index = starts[:, None] + np.arange(size + 1)[None, :]
     p = xy[index] - xy[starts][:, None, :]
     centre = np.array([[-xy[s] * 1.001 for _ in range(size)] for s in starts])  # near the origin, local
-    vector = _bound(chain, starts, index, p, p, centre, np.arange(1, size + 1))
+    b, k = np.divmod(np.arange(len(starts) * size), size)  # every start with every end, as candidates
+    vector = _bound(chain, starts[b], index[b], p[b], p[b], centre[b, k], k + 1).reshape(len(starts), size)
     for b, s in enumerate(starts):
         for j in range(1, size + 1):
             written = xy[s] + np.round(centre[b, j - 1] * 10.0 ** decimals) / 10.0 ** decimals
@@ -360,3 +361,26 @@ def test_a_straight_edge_in_noisy_steps_with_a_repeated_corner_becomes_one_arc()
     assert lines[4].startswith("G2 X3.4486 Y8.7958 ") and lines[5] == "G1 X3.4486Y8.7958"
     assert lines[:4] == text.splitlines()[:4] and lines[6:] == ["G0 Z1", "M30"]
     assert _deviation(text, out, chord=1e-5) <= 0.01
+
+
+@pytest.mark.parametrize(("repeat", "arcs"), [("F800", 1), ("F900", 2), ("F800 G93", 0)])
+def test_an_f_word_repeating_the_feed_in_effect_does_not_break_an_arc(repeat, arcs):
+    """A CAM post's F every few hundred lines at the feed already in effect changes nothing a controller
+    does, so an arc passes over it; a new feed splits the arcs (each keeps its own); in inverse time
+    (G93) an F is each move's own time, so no arc replaces such lines at all."""
+    lines = polygon_program(60).splitlines()
+    feed, *mode = repeat.split()
+    if mode:  # every move its own F, as inverse time requires
+        lines[0] += " G93"
+        lines[5:] = [line + f" {feed}" if line.startswith("G1") else line for line in lines[5:]]
+    else:
+        lines[34] += f" {feed}"  # the half circle's 30th point
+    text = "\n".join(lines) + "\n"
+    program = read_text(text)
+    out, records, _, _, _ = weld_arcs(program, program, 0.01)
+    assert len(records) == arcs
+    if arcs == 2:  # the new feed stays on the first line of the arc it starts
+        assert any(line.startswith("G") and line.endswith(" F900") for line in out.splitlines())
+        assert records[0].last_line == 34
+    if arcs:
+        assert _deviation(text, out) <= 0.01

@@ -160,22 +160,30 @@ def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, end: int, bud
     a = np.where(inner, 2.0 * along, 0.0)
     least = np.einsum("bjk,bjk->bj", a, miss) / np.maximum(np.einsum("bjk,bjk->bj", a, a), 1e-300)
     half = length / 2.0
-    minimax = _golden(a, miss, inner, least, half)
-    # a run straight within its noise (a CAM's straight edge cut in steps) has no stable algebraic centre:
-    # the flattest arc allowed, bulging the way its points do, may still lie within the band
-    reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half ** 2, 0.0))
-    flattest = -np.sign(np.where(inner, along, 0.0).sum(axis=-1)) * reach
+    q = starts[:, None] + j[None, :]
     fits = np.zeros(least.shape, bool)
     centre = np.zeros(least.shape + (2,))
-    for t in (flattest, minimax, least):  # least squares wins where it fits, then the minimax centre
-        c = chord / 2.0 + t[..., None] * normal
-        bound = _bound(chain, starts, index, p, o, c, j)
-        radius = np.hypot(c[..., 0], c[..., 1])
-        ok = (bound <= budget) & (radius <= max_radius) & np.isfinite(bound)
-        fits |= ok
-        centre[ok] = c[ok]
-    q = starts[:, None] + j[None, :]
-    fits &= (j[None, :] >= min_segments) & (q <= end) & (length > 0)
+    # candidates (start b, end j): least squares first, then the minimax centre, then the flattest arc, each
+    # tried only where the ones before did not fit (in a long smooth arc the first fits nearly every end)
+    b, k = np.nonzero((j[None, :] >= min_segments) & (q <= end) & (length > 0))
+    for kind in ("least", "minimax", "flattest"):
+        if not len(b):
+            break
+        if kind == "least":
+            t = least[b, k]
+        elif kind == "minimax":
+            t = _golden(a[b, k], miss[b, k], inner[k], least[b, k], half[b, k])
+        else:
+            # a run straight within its noise (a CAM's straight edge cut in steps) has no stable algebraic
+            # centre: the flattest arc allowed, bulging the way its points do, may still lie within the band
+            reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half[b, k] ** 2, 0.0))
+            t = -np.sign(np.where(inner[k], along[b, k], 0.0).sum(axis=-1)) * reach
+        c = chord[b, k] / 2.0 + t[:, None] * normal[b, k]
+        bound = _bound(chain, starts[b], index[b], p[b], o[b], c, j[k])
+        ok = (bound <= budget) & (np.hypot(c[:, 0], c[:, 1]) <= max_radius) & np.isfinite(bound)
+        fits[b[ok], k[ok]] = True
+        centre[b[ok], k[ok]] = c[ok]
+        b, k = b[~ok], k[~ok]
     return fits, centre + origin
 
 
@@ -212,52 +220,51 @@ def _golden(a, miss, inner, least, half) -> np.ndarray:
 
 
 def _bound(chain: Chain, starts, index, p, o, c, j: np.ndarray) -> np.ndarray:
-    """:func:`toolpath.smooth.arc_weld.spiral_bound` of every candidate (B, J), on the arc as written."""
-    size = int(j[-1])
+    """:func:`toolpath.smooth.arc_weld.spiral_bound` of each candidate ``n`` (the arc about ``c[n]`` from
+    point ``starts[n]`` to ``starts[n] + j[n]``, as written), its points ``p[n, :j[n] + 1]`` (local to the
+    start; ``o``: the original's) at ``index[n]`` of the chain."""
+    n, size = np.arange(len(j)), p.shape[1] - 1
     k = np.arange(size + 1)
-    upto = k[None, :] <= j[:, None]  # (K, K+1): the vertices of candidate j
-    steps = k[None, :-1] < j[:, None]  # (K, K): its segments
-    qi = index[:, j]
-    decimals = chain.decimals[qi]
-    power = 10.0 ** decimals
-    centre_scale = chain.centre_scale[starts][:, None, None]
-    cw = np.round(c / centre_scale * power[..., None]) / power[..., None] * centre_scale  # I/J as written
+    upto = k[None, :] <= j[:, None]  # (N, K+1): the vertices of each candidate
+    steps = k[None, :-1] < j[:, None]  # (N, K): its segments
+    qi = index[n, j]
+    power = (10.0 ** chain.decimals[qi])[:, None]
+    centre_scale = chain.centre_scale[starts][:, None]
+    cw = np.round(c / centre_scale * power) / power * centre_scale  # I/J as written
     target = chain.target[qi]
-    written_end = p[:, j] + (np.round(target * power[..., None]) / power[..., None] - target) \
-        * chain.end_scale[qi][..., None]
+    written_end = p[n, j] + (np.round(target * power) / power - target) * chain.end_scale[qi][:, None]
     s = -cw  # the start (local 0) from the centre
     e = written_end - cw
-    off = o[:, None, :, :] - cw[:, :, None, :]  # (B, K, K+1, 2)
+    off = o - cw[:, None, :]  # (N, K+1, 2)
     d = np.hypot(off[..., 0], off[..., 1])
-    a, u = off[..., :-1, :], np.diff(off, axis=-2)
+    a, u = off[:, :-1], np.diff(off, axis=1)
     cross = a[..., 0] * u[..., 1] - a[..., 1] * u[..., 0]  # a x b == a x (b - a)
-    dot = np.einsum("...d,...d->...", a, off[..., 1:, :])
-    pa, pb = p[:, None, :-1, :] - c[:, :, None, :], p[:, None, 1:, :] - c[:, :, None, :]
+    dot = np.einsum("...d,...d->...", a, off[:, 1:])
+    pa, pb = p[:, :-1] - c[:, None], p[:, 1:] - c[:, None]
     turn = pa[..., 0] * pb[..., 1] - pa[..., 1] * pb[..., 0]  # the fitted points' turns about the exact centre
-    sign = np.sign(turn[..., 0])  # every candidate has its first segment
-    one_way = np.all(~steps | ((turn * sign[..., None] > 0) & (cross * sign[..., None] > 0) & (dot > 0)
+    sign = np.sign(turn[:, :1])  # every candidate has its first segment
+    one_way = np.all(~steps | ((turn * sign > 0) & (cross * sign > 0) & (dot > 0)
                                & (np.einsum("...d,...d->...", pa, pb) > 0)), axis=-1)
-    step_angle = np.where(steps, np.arctan2(cross, dot) * sign[..., None], 0.0)
-    theta = np.concatenate([np.zeros(step_angle.shape[:-1] + (1,)), np.cumsum(step_angle, axis=-1)], axis=-1)
-    lead = np.arctan2(s[..., 0] * off[..., 0, 1] - s[..., 1] * off[..., 0, 0],
-                      np.einsum("...d,...d->...", s, off[..., 0, :])) * sign
-    sweep = np.mod(np.arctan2(s[..., 0] * e[..., 1] - s[..., 1] * e[..., 0], np.einsum("...d,...d->...", s, e))
-                   * sign, 2.0 * math.pi)
+    step_angle = np.where(steps, np.arctan2(cross, dot) * sign, 0.0)
+    theta = np.concatenate([np.zeros((len(j), 1)), np.cumsum(step_angle, axis=-1)], axis=-1)
+    lead = np.arctan2(s[:, 0] * off[:, 0, 1] - s[:, 1] * off[:, 0, 0],
+                      np.einsum("...d,...d->...", s, off[:, 0])) * sign[:, 0]
+    sweep = np.mod(np.arctan2(s[:, 0] * e[:, 1] - s[:, 1] * e[:, 0], np.einsum("...d,...d->...", s, e))
+                   * sign[:, 0], 2.0 * math.pi)
     sweep = np.where(sweep <= 0.0, 2.0 * math.pi, sweep)
-    total = theta[:, np.arange(len(j)), j]  # each candidate's turn from its first vertex to its last
-    one_way &= total < 2.0 * math.pi - 1e-9
-    frac = (lead[..., None] + theta) / sweep[..., None]
+    one_way &= theta[n, j] < 2.0 * math.pi - 1e-9  # each candidate's turn from its first vertex to its last
+    frac = (lead[:, None] + theta) / sweep[:, None]
     interior = upto & (k[None, :] > 0) & (k[None, :] < j[:, None])
     one_way &= ~np.any(interior & ((frac < 0.0) | (frac > 1.0)), axis=-1)  # a vertex off the span: no bound
     frac = np.clip(frac, 0.0, 1.0)
-    r0, r1 = np.hypot(s[..., 0], s[..., 1]), np.hypot(e[..., 0], e[..., 1])
-    r = r0[..., None] + (r1 - r0)[..., None] * frac
+    r0, r1 = np.hypot(s[:, 0], s[:, 1]), np.hypot(e[:, 0], e[:, 1])
+    r = r0[:, None] + (r1 - r0)[:, None] * frac
     t = np.clip(-np.einsum("...d,...d->...", a, u) / np.maximum(np.einsum("...d,...d->...", u, u), 1e-300), 0.0, 1.0)
     nearest = np.hypot(a[..., 0] + t * u[..., 0], a[..., 1] + t * u[..., 1])
-    inside = np.maximum(r[..., :-1], r[..., 1:]) - nearest
-    outside = np.maximum(d[..., :-1], d[..., 1:]) - np.minimum(r[..., :-1], r[..., 1:])
+    inside = np.maximum(r[:, :-1], r[:, 1:]) - nearest
+    outside = np.maximum(d[:, :-1], d[:, 1:]) - np.minimum(r[:, :-1], r[:, 1:])
     worst = np.maximum(np.where(upto, np.abs(d - r), -np.inf).max(axis=-1),
                        np.where(steps, np.maximum(inside, outside), -np.inf).max(axis=-1))
-    last = off[:, np.arange(len(j)), j, :] - e  # the last vertex against the end as written
-    worst = np.maximum(worst, np.hypot(last[..., 0], last[..., 1]))
+    last = off[n, j] - e  # the last vertex against the end as written
+    worst = np.maximum(worst, np.hypot(last[:, 0], last[:, 1]))
     return np.where(one_way, worst, np.inf)

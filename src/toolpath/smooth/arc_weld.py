@@ -2,13 +2,13 @@
 tolerance of the original path, as ArcWelder does for 3-D printers (fewer, longer blocks: a controller
 plans an arc at constant curvature instead of a chain of tiny corners).
 
-Which lines.  A run of consecutive lines (nothing between them) that are each one plain G1 move in
-the XY plane (:func:`toolpath.gcode.edit.movable_lines`), in absolute mode, with no block delete ``/``
-and no comment (a line an arc replaces is gone, with all it holds), with an F word on the first line
-at most.  The arc replaces lines ``L(i+1)..L(q)`` (points ``i..q``): the first becomes
-``[N..] G2|G3 X Y I J [F..]`` with its line ending, the others are removed; the line after the arc,
-always a G1 of the run, gets an explicit ``G1`` (after its N word) if it relied on the modal one.  Programs that use
-G90.1 (absolute arc centres) are left alone.
+Which lines.  A run of consecutive lines (nothing between them) that are each one plain G1 move in the XY
+plane (:func:`toolpath.gcode.edit.movable_lines`), in absolute mode, with no block delete ``/`` and no comment
+(a line an arc replaces is gone, with all it holds), with an F word on the first line at most (or one that
+repeats the feed in effect, outside inverse time G93: a controller does nothing with it).  The arc replaces
+lines ``L(i+1)..L(q)`` (points ``i..q``): the first becomes ``[N..] G2|G3 X Y I J [F..]`` with its line
+ending, the others are removed; the line after the arc, always a G1 of the run, gets an explicit ``G1`` (after
+its N word) if it relied on the modal one.  Programs that use G90.1 (absolute arc centres) are left alone.
 
 The fit.  Each arc passes through its first and last point (its centre on their perpendicular
 bisector), turns one way by less than a full circle, and lies within the budget: the tolerance less the
@@ -47,6 +47,7 @@ MAX_SEGMENTS = 800   # growth stops here (fitting is quadratic in the arc's leng
 MOTION_CODES = {0.0, 1.0, 2.0, 3.0, 5.0, 5.1, 5.2, 33.0, 33.1, 73.0, 76.0}  # with G38.x and G80-G89
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
+_INVERSE_TIME = re.compile(r"G\s*0*93(?![\d.])", re.IGNORECASE)
 _LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
 
 
@@ -110,16 +111,24 @@ def _bare(raw: str) -> bool:
 
 
 def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int, bool]]:
-    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are plain G1 lines in
-    absolute mode, consecutive from ``L(i+1)`` on (lines before it that leave X and Y where they are, a
-    plunge, stay), with no block delete or comment, an F word only on the first, none read past blind
-    (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands before and after each the same
-    with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``: the line
-    after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's, or is a bare G1 line that
-    moves nowhere, which may be given a ``G1``)."""
+    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are plain G1 lines in absolute
+    mode, consecutive from ``L(i+1)`` on (lines before it that leave X and Y where they are, a plunge, stay),
+    with no block delete or comment, an F word only on the first (or one repeating the feed in effect), none
+    read past blind (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands before and after
+    each the same with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``:
+    the line after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's, or is a bare G1 line
+    that moves nowhere, which may be given a ``G1``)."""
     movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
     stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
+    # an F word that repeats the feed in effect changes nothing a controller does (ArcWelder drops it too),
+    # except in inverse time (G93), where F is each move's own time
+    inverse_time = bool(_INVERSE_TIME.search("".join(program.lines)))
+    feed = program.states.feed
+
+    def new_feed(line: int) -> bool:
+        return _has_feed(program, line) and (inverse_time or feed[line] != feed[line - 1])
+
     out = []
     for xy, lines in feed_runs(program):
         replaceable, joined = np.zeros(len(lines), bool), np.zeros(len(lines), bool)
@@ -137,7 +146,7 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
                 k += 1
                 continue
             i, k = k - 1, k + 1
-            while k < len(lines) and replaceable[k] and joined[k] and not _has_feed(program, int(lines[k])):
+            while k < len(lines) and replaceable[k] and joined[k] and not new_feed(int(lines[k])):
                 k += 1
             after = int(lines[k - 1]) + 1
             # a bare plain G1 line after it (one that moves nowhere, so in no run) takes a written G1 as well
