@@ -1,11 +1,12 @@
 """Which arcs a chain of G1 points allows, found for many starts and ends at once (issue 44: ``--arcs``
 uses the whole band and writes the fewest lines).
 
-For a start ``i`` and every end ``q = i + j`` within a block of ``K`` points, three arcs through both ends
-are tried: the centre on the chord's bisector nearest (least squares, algebraically) to the points
-between, the one whose largest radial miss of those points is least (a golden-section search along
-the bisector), and the flattest allowed (for a straight run in noisy steps, whose algebraic centre is
-unstable).  Each is measured as :func:`toolpath.smooth.arc_weld.spiral_bound` measures one arc: with
+For a start ``i`` and every end ``q = i + j`` within a block of ``K`` points, up to three arcs through both
+ends are tried in turn, each only where the ones before do not fit: the centre on the chord's bisector
+nearest (least squares, algebraically) to the points between, the one whose largest radial miss of those
+points is least (a golden-section search along the bisector), and the flattest allowed (for a straight run
+in noisy steps, whose algebraic centre is unstable).  Each is measured as
+:func:`toolpath.smooth.arc_weld.spiral_bound` measures one arc: with
 its end point and centre rounded as they are written, the reader's spiral between the two radii, every
 original vertex and segment paired with the arc along rays from the centre.  The arrays are
 ``(starts, ends, points)``; a start whose arcs still fit near the block's edge is measured again with a
