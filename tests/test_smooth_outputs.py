@@ -147,3 +147,23 @@ def test_a_model_that_is_no_window_classifier_is_the_files_problem(predict, said
         checked(predict, "m.onnx")
     rule = checked(lambda X: np.ones(len(X), int), "rule")
     assert rule(np.zeros((3, 50, 2))).tolist() == [1, 1, 1]
+
+
+def test_a_temporary_is_noted_for_removal_before_it_exists(tmp_path, monkeypatch):
+    """A signal's handler removes what PENDING names: the temporary's name is there before the file is
+    made (a signal in between once left the file behind in the suite) and gone once it is renamed."""
+    from toolpath.smooth import outputs
+
+    made = []
+    real_open = os.open
+
+    def noting_open(name, *args):
+        made.append((name, name in outputs.PENDING, os.path.exists(name)))
+        return real_open(name, *args)
+
+    monkeypatch.setattr(outputs.os, "open", noting_open)
+    with outputs.atomic(tmp_path / "out.nc") as fh:
+        fh.write(b"G0 X0\n")
+    assert [(noted, existed) for _, noted, existed in made] == [(True, False)]
+    assert not outputs.PENDING and (tmp_path / "out.nc").read_bytes() == b"G0 X0\n"
+    _only(tmp_path, "out.nc")

@@ -14,8 +14,8 @@ from __future__ import annotations
 import contextlib
 import filecmp
 import os
+import secrets
 import stat
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -109,12 +109,11 @@ PENDING: set[str] = set()  # temporaries of atomic() not yet renamed or removed
 def atomic(path: Path) -> Iterator:
     """A file beside ``path`` to write, renamed to ``path`` when the block ends without an error (or a
     signal): a reader never sees half a file, and a failure leaves ``path`` as it was."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    PENDING.add(temporary)
+    handle, temporary = _new_temporary(path)
     try:
         with os.fdopen(handle, "wb") as fh:
             yield fh
-        # mkstemp makes the file private (0600); give it the mode the file had, or a plain new file's
+        # the temporary is private (0600); give it the mode the file had, or a plain new file's
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(temporary, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~umask)
@@ -124,6 +123,21 @@ def atomic(path: Path) -> Iterator:
         raise
     finally:
         PENDING.discard(temporary)
+
+
+def _new_temporary(path: Path) -> tuple[int, str]:
+    """A new private file beside ``path``, its name noted in PENDING before the file exists: a signal
+    between making the file and noting it would leave it behind (seen once in the suite)."""
+    while True:
+        temporary = str(path.parent / f".{path.name}.{secrets.token_hex(6)}")
+        PENDING.add(temporary)
+        try:
+            return os.open(temporary, os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o600), temporary
+        except FileExistsError:
+            PENDING.discard(temporary)
+        except BaseException:
+            PENDING.discard(temporary)
+            raise
 
 
 def remove_pending() -> None:
