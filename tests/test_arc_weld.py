@@ -310,28 +310,14 @@ def test_the_screen_measures_each_arc_as_the_scalar_bound_does(seed, noise, deci
             assert both_inf or vector[b, j - 1] == pytest.approx(scalar, abs=1e-9)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_the_search_skips_only_ends_it_cannot_improve(seed, monkeypatch):
-    """fewest_blocks measures a start only at the ends whose count it could lower: it chooses the very
-    arcs of the plain dynamic programme that measures every start at every end."""
-    from toolpath.smooth import arc_search
-
-    monkeypatch.setattr(arc_search, "BLOCK", 64)  # one block of the longest arcs: no edge rule to compare
-    rng = np.random.default_rng(seed)
-    turn = np.concatenate([rng.uniform(0.01, 0.05, 70), np.zeros(20), rng.uniform(-0.08, -0.02, 60)])
-    heading = np.cumsum(turn)
-    xy = np.round(np.cumsum(np.column_stack([np.cos(heading), np.sin(heading)]) * 0.3, axis=0)
-                  + rng.normal(0.0, 0.002, (len(turn), 2)), 3)
-    n, longest, budget = len(xy), 40, 0.01
-    chain = arc_search.Chain(xy, xy, xy, np.ones(n), np.full(n, 3), np.ones(n))
-    chosen = [(i, q) for i, q, _ in arc_search.fewest_blocks(chain, n - 1, budget, 2, longest, 1e4, 8)]
-
+def _plain_fewest_blocks(arc_search, chain, n, longest, budget):
+    """The plain dynamic programme: every start measured at every end (a long window, no edge rule)."""
     blocks, came = np.arange(n), np.full(n, -1)
     for i in range(n - 2):
         if i and blocks[i - 1] + 1 < blocks[i]:
             blocks[i], came[i] = blocks[i - 1] + 1, -1
-        size = min(longest, n - 1 - i)
-        fits, _ = arc_search._measure(chain, np.array([i]), 1, size, n - 1, budget, 2, 1e4)
+        j = np.arange(1, min(longest, n - 1 - i) + 1)[None, :]
+        fits, _ = arc_search._measure_ends(chain, np.array([i]), j, np.ones_like(j, bool), n - 1, budget, 2, 1e4)
         for q in np.flatnonzero(fits[0]) + 1 + i:
             if blocks[i] + 1 < blocks[q]:
                 blocks[q], came[q] = blocks[i] + 1, i
@@ -342,8 +328,49 @@ def test_the_search_skips_only_ends_it_cannot_improve(seed, monkeypatch):
         else:
             plain.append((int(came[k]), k))
             k = int(came[k])
+    return plain[::-1]
+
+
+def _turning_chain(arc_search, seed):
+    rng = np.random.default_rng(seed)
+    turn = np.concatenate([rng.uniform(0.01, 0.05, 70), np.zeros(20), rng.uniform(-0.08, -0.02, 60)])
+    heading = np.cumsum(turn)
+    xy = np.round(np.cumsum(np.column_stack([np.cos(heading), np.sin(heading)]) * 0.3, axis=0)
+                  + rng.normal(0.0, 0.002, (len(turn), 2)), 3)
+    return arc_search.Chain(xy, xy, xy, np.ones(len(xy)), np.full(len(xy), 3), np.ones(len(xy)))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_search_skips_only_ends_it_cannot_improve(seed, monkeypatch):
+    """With every start measured (no skipped starts) and windows longer than the longest arc, fewest_blocks
+    measures a start only at the ends whose count it could lower: it chooses the very arcs of the plain
+    dynamic programme that measures every start at every end."""
+    from toolpath.smooth import arc_search
+
+    monkeypatch.setattr(arc_search, "FIRST_WINDOW", 64)  # one window of the longest arcs: no edge rule
+    monkeypatch.setattr(arc_search, "SKIP_GAP", 10 ** 6)
+    chain = _turning_chain(arc_search, seed)
+    n, longest, budget = len(chain.xy), 40, 0.01
+    chosen = [(i, q) for i, q, _ in arc_search.fewest_blocks(chain, n - 1, budget, 2, longest, 1e4, 8)]
     assert len(chosen) >= 3
-    assert chosen == plain[::-1]
+    assert chosen == _plain_fewest_blocks(arc_search, chain, n, longest, budget)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_measuring_only_the_last_starts_of_a_long_arc_writes_as_few_blocks(seed):
+    """The search as it runs (windows that grow, only the last starts inside a long arc measured) leaves
+    as few blocks as the plain dynamic programme on a path of two arcs and a straight run in noise."""
+    from toolpath.smooth import arc_search
+
+    chain = _turning_chain(arc_search, seed)
+    n, longest, budget = len(chain.xy), 40, 0.01
+    chosen = arc_search.fewest_blocks(chain, n - 1, budget, 2, longest, 1e4, 8)
+    plain = _plain_fewest_blocks(arc_search, chain, n, longest, budget)
+
+    def blocks(arcs):
+        return len(arcs) + (n - 1) - sum(q - i for i, q, *_ in arcs)
+
+    assert blocks(chosen) == blocks(plain) < n - 1 - 50
 
 
 def test_a_straight_edge_in_noisy_steps_with_a_repeated_corner_becomes_one_arc():

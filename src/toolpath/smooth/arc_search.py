@@ -9,10 +9,12 @@ in noisy steps, whose algebraic centre is unstable).  Each is measured as
 :func:`toolpath.smooth.arc_weld.spiral_bound` measures one arc: with
 its end point and centre rounded as they are written, the reader's spiral between the two radii, every
 original vertex and segment paired with the arc along rays from the centre.  The arrays are
-``(starts, ends, points)``; a start whose arcs still fit near the block's edge is measured again with a
-block twice as long.  The fewest blocks then follow by dynamic programming over the ends
-(:func:`fewest_blocks`).  Everything here is a screen: the arcs chosen are measured again one by one with
-the numbers as formatted, and the output is re-read and measured exactly by the caller.
+``(starts, ends, points)``; a start measures its ends in windows, each twice as long as the one before,
+while arcs fit near a window's last end.  The fewest blocks then follow by dynamic programming over the
+ends (:func:`fewest_blocks`), which measures a start only at the ends whose count it could lower and,
+inside a long arc, only the last starts before its end (a later start reaches about as far).  Everything
+here is a screen: the arcs chosen are measured again one by one with the numbers as formatted, and the
+output is re-read and measured exactly by the caller.
 """
 
 from __future__ import annotations
@@ -22,8 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-BLOCK = 32             # ends measured per start at first (doubled while arcs fit near the edge)
-CELLS = 64 * 32 * 33   # starts x ends x points per batch: about 1 MB an array
+FIRST_WINDOW = 16      # ends a start measures at first (the window doubles while arcs fit near its end)
+LAST_WINDOW = 256      # the longest window
+SKIP_GAP = 8           # a start is measured unless the point this far on has no more blocks than it
+CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
 STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
                        # measure fewer ends inside a long arc (each measures only past the last count)
 GRID = 17              # the minimax centre's coarse search along the bisector, then
@@ -49,7 +53,9 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
     arc or a G1 line each), no arc ending past point ``end``, each within ``budget`` by the screen.
 
     Dynamic programming in the order of the starts: every arc into point ``i`` starts before it, so when
-    the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed."""
+    the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed.  Exact but for one
+    shortcut: where the point ``SKIP_GAP`` on has no more blocks than a start (inside a long arc), that start
+    is not measured, as a later one reaches about as far."""
     n = len(chain.xy)
     blocks = np.full(n, n + 1, np.int64)
     blocks[0] = 0
@@ -58,15 +64,28 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
     starts = np.arange(0, max(end - min_segments + 1, 0))
     for lo in range(0, len(starts), STARTS_PER_STEP):
         chunk = starts[lo:lo + STARTS_PER_STEP]
-        # No start of the chunk can bring an end below ``known`` under the fewest blocks already found there:
-        # each start's own count is at least the least count over the chunk, so those ends are not measured.
-        least = blocks[max(chunk[0] - 1, 0):chunk[-1] + 1].min()  # the point before reaches in by a line
-        above = np.flatnonzero(blocks[chunk[0]:] > least + 1)
-        known = chunk[0] + (int(above[0]) if len(above) else n - chunk[0])
-        for i, fits, centre in _measured(chain, chunk, end, budget, min_segments, max_segments, max_radius,
-                                         lookahead, known):
+        for i in chunk[chunk > 0].tolist():  # each point is reached by a line from the one before at least
+            if blocks[i - 1] + 1 < blocks[i]:
+                blocks[i], from_start[i] = blocks[i - 1] + 1, -1
+        # inside a long arc every start has the same count, and a later one reaches about as far (an arc
+        # from it is a part of the earlier one's): only the last starts of such a run are measured
+        ahead = chunk + SKIP_GAP
+        measured = chunk[(ahead >= n) | (blocks[np.minimum(ahead, n - 1)] > blocks[chunk])]
+        results = {}
+        if len(measured):
+            # No start of the chunk can bring an end below ``known`` under the fewest blocks already found
+            # there: each start's count is at least the least over the chunk, so those ends are not measured.
+            least = blocks[max(measured[0] - 1, 0):measured[-1] + 1].min()  # the point before: by a line
+            above = np.flatnonzero(blocks[measured[0]:] > least + 1)
+            known = measured[0] + (int(above[0]) if len(above) else n - measured[0])
+            results = {i: (fits, centre) for i, fits, centre in _measured(
+                chain, measured, end, budget, min_segments, max_segments, max_radius, lookahead, known)}
+        for i in chunk.tolist():
             if i > 0 and blocks[i - 1] + 1 < blocks[i]:
                 blocks[i], from_start[i] = blocks[i - 1] + 1, -1
+            if i not in results:
+                continue
+            fits, centre = results[i]
             ends = np.flatnonzero(fits) + 1 + i
             better = ends[blocks[i] + 1 < blocks[ends]]
             blocks[better], from_start[better] = blocks[i] + 1, i
@@ -87,104 +106,87 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
 
 def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segments: int, max_segments: int,
               max_radius: float, lookahead: int, known: int):
-    """Per start of ``chunk``, in order: (start, fits per end i+1.., centres), each start measured with a
-    block long enough that no arc fits within ``lookahead`` of its edge (or the longest allowed).  Ends
-    before ``known`` are left unmeasured (False) unless they lie within ``lookahead`` of the edge, and a
-    start's first block already reaches ``lookahead`` past ``known``: inside a long arc each start then
-    measures only the few ends that could lower a count."""
-    results: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-    size = np.full(len(chunk), BLOCK)
-    while np.any(grow := (size < known - chunk + lookahead + 1) & (size < max_segments)):
-        size[grow] *= 2
-    size = np.minimum(np.minimum(size, max_segments), np.maximum(end - chunk, 1))
-    todo = np.ones(len(chunk), bool)
+    """Per start of ``chunk``, in order: (start, fits per end i+1.., centres).  Each start measures its ends
+    from ``known`` on (the earlier ones it cannot improve) in windows, each twice as long as the one before,
+    until no arc fits within ``lookahead`` of a window's last end or the longest allowed is reached.  A
+    window costs its ends times its last end's length, so a start inside a long arc, whose arcs end just
+    past ``known``, measures a few ends and not a block of them."""
+    limit = np.minimum(max_segments, end - chunk)  # the last end (j) each start may reach
+    first = np.maximum(known - chunk, 1)
+    fits = [np.zeros(max(int(n), 0), bool) for n in limit]
+    centres = [np.zeros((max(int(n), 0), 2)) for n in limit]
+    width = np.full(len(chunk), FIRST_WINDOW)
+    todo = first <= limit
     while todo.any():
-        block = int(size[todo].min())
-        rows = np.flatnonzero(todo & (size == block))
+        rows = np.flatnonzero(todo)
+        last = np.minimum(first + width - 1, limit)
         lo = 0
-        while lo < len(rows):
-            hi = lo + 1  # as many starts as fit in CELLS, each measured from its part's first end
-            while hi < len(rows):
-                ends = block - _first(known, chunk[rows[hi]], block, lookahead, max_segments) + 1
-                if (hi + 1 - lo) * ends * (block + 1) > CELLS:
-                    break
+        while lo < len(rows):  # as many starts as fit in CELLS: each costs its window times its last end
+            hi, cells = lo + 1, 0
+            while hi < len(rows) and cells + (width[rows[hi]] * (last[rows[hi]] + 1)) <= CELLS:
+                cells += width[rows[hi]] * (last[rows[hi]] + 1)
                 hi += 1
-            part = chunk[rows[lo:hi]]
-            first = _first(known, part[-1], block, lookahead, max_segments)
-            fits, centre = _measure(chain, part, first, block, end, budget, min_segments, max_radius)
-            reach = np.where(fits.any(axis=1), block - np.argmax(fits[:, ::-1], axis=1), 0)
-            edge = (reach > block - lookahead - 1) & (block < max_segments) & (part + block < end)
-            for k, (row, start) in enumerate(zip(rows[lo:hi], part, strict=True)):
-                if edge[k]:
-                    size[row] = min(2 * block, max_segments, max(end - int(start), 1))
-                else:
-                    todo[row] = False
-                    results[int(start)] = fits[k], centre[k]
+            part = rows[lo:hi]
+            j = first[part, None] + np.arange(int(width[part].max()))[None, :]
+            valid = j <= last[part, None]
+            ok, centre = _measure_ends(chain, chunk[part], np.where(valid, j, first[part, None]), valid, end,
+                                       budget, min_segments, max_radius)
+            for k, row in enumerate(part):
+                span = slice(int(first[row]) - 1, int(last[row]))
+                fits[row][span] = ok[k, valid[k]]
+                centres[row][span] = centre[k, valid[k]]
             lo = hi
-    for i in chunk.tolist():
-        yield (i, *results[i])
+        reach = np.array([int(np.flatnonzero(fits[r][:last[r]])[-1]) + 1 if fits[r][:last[r]].any() else 0
+                          for r in range(len(chunk))])
+        todo &= (reach >= last - lookahead) & (last < limit)
+        first, width = last + 1, np.minimum(2 * width, LAST_WINDOW)
+    for k, i in enumerate(chunk.tolist()):
+        yield i, fits[k], centres[k]
 
 
-def _first(known: int, start: int, block: int, lookahead: int, max_segments: int) -> int:
-    """The first end (``j``) a start measures: from ``known`` on, or the ``lookahead`` ends at the edge
-    (no edge once the block is the longest allowed)."""
-    edge = block - lookahead - 1 if block < max_segments else block
-    return max(1, min(known - int(start), edge))
-
-
-def _measure(chain: Chain, starts: np.ndarray, first: int, size: int, end: int, budget: float,
-             min_segments: int, max_radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """For each start and each end ``i + j`` (j = 1..size): whether an arc fits, and its centre (mm); ends
-    with ``j < first`` are not measured (they do not fit)."""
-    fits = np.zeros((len(starts), size), bool)
-    centre = np.zeros((len(starts), size, 2))
-    fits[:, first - 1:], centre[:, first - 1:] = _measure_ends(chain, starts, np.arange(first, size + 1), end,
-                                                               budget, min_segments, max_radius)
-    return fits, centre
-
-
-def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, end: int, budget: float, min_segments: int,
-                  max_radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """For each start and each end ``i + j``: whether an arc fits, and its centre (mm)."""
-    size = int(j[-1])
-    index = np.minimum(starts[:, None] + np.arange(size + 1)[None, :], len(chain.xy) - 1)  # (B, K+1)
+def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, valid: np.ndarray, end: int, budget: float,
+                  min_segments: int, max_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """For each start ``b`` and each of its ends ``starts[b] + j[b, m]`` (``j``: (B, J), measured where
+    ``valid``): whether an arc fits, and its centre (mm)."""
+    size = int(j.max())
+    k = np.arange(size + 1)
+    index = np.minimum(starts[:, None] + k[None, :], len(chain.xy) - 1)  # (B, K+1)
     origin = chain.xy[starts][:, None, :]
     p = chain.xy[index] - origin  # local: no cancellation far from the machine origin
     o = chain.original[index] - origin
-    chord = p[:, j]  # (B, J, 2): the end of each candidate
+    chord = np.take_along_axis(p, j[..., None], axis=1)  # (B, J, 2): the end of each candidate
     length = np.hypot(chord[..., 0], chord[..., 1])
     normal = np.stack([-chord[..., 1], chord[..., 0]], axis=-1) / np.maximum(length, 1e-300)[..., None]
-    inner = (np.arange(size + 1)[None, :] >= 1) & (np.arange(size + 1)[None, :] < j[:, None])  # (K, K+1)
+    inner = (k >= 1) & (k < j[..., None])  # (B, J, K+1)
     # |p - c|^2 - |c|^2 = v - 2 p.m - 2 t p.n  with c = m + t n on the bisector: linear in t
     along = np.einsum("bkd,bjd->bjk", p, normal)  # p_k . n_j
     miss = np.einsum("bkd,bkd->bk", p, p)[:, None, :] - np.einsum("bkd,bjd->bjk", p, chord)
     a = np.where(inner, 2.0 * along, 0.0)
     least = np.einsum("bjk,bjk->bj", a, miss) / np.maximum(np.einsum("bjk,bjk->bj", a, a), 1e-300)
     half = length / 2.0
-    q = starts[:, None] + j[None, :]
     fits = np.zeros(least.shape, bool)
     centre = np.zeros(least.shape + (2,))
-    # candidates (start b, end j): least squares first, then the minimax centre, then the flattest arc, each
+    # candidates (start b, end m): least squares first, then the minimax centre, then the flattest arc, each
     # tried only where the ones before did not fit (in a long smooth arc the first fits nearly every end)
-    b, k = np.nonzero((j[None, :] >= min_segments) & (q <= end) & (length > 0))
+    b, m = np.nonzero(valid & (j >= min_segments) & (starts[:, None] + j <= end) & (length > 0))
     for kind in ("least", "minimax", "flattest"):
         if not len(b):
             break
         if kind == "least":
-            t = least[b, k]
+            t = least[b, m]
         elif kind == "minimax":
-            t = _golden(a[b, k], miss[b, k], inner[k], least[b, k], half[b, k])
+            t = _golden(a[b, m], miss[b, m], inner[b, m], least[b, m], half[b, m])
         else:
             # a run straight within its noise (a CAM's straight edge cut in steps) has no stable algebraic
             # centre: the flattest arc allowed, bulging the way its points do, may still lie within the band
-            reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half[b, k] ** 2, 0.0))
-            t = -np.sign(np.where(inner[k], along[b, k], 0.0).sum(axis=-1)) * reach
-        c = chord[b, k] / 2.0 + t[:, None] * normal[b, k]
-        bound = _bound(chain, starts[b], index[b], p[b], o[b], c, j[k])
+            reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half[b, m] ** 2, 0.0))
+            t = -np.sign(np.where(inner[b, m], along[b, m], 0.0).sum(axis=-1)) * reach
+        c = chord[b, m] / 2.0 + t[:, None] * normal[b, m]
+        bound = _bound(chain, starts[b], index[b], p[b], o[b], c, j[b, m])
         ok = (bound <= budget) & (np.hypot(c[:, 0], c[:, 1]) <= max_radius) & np.isfinite(bound)
-        fits[b[ok], k[ok]] = True
-        centre[b[ok], k[ok]] = c[ok]
-        b, k = b[~ok], k[~ok]
+        fits[b[ok], m[ok]] = True
+        centre[b[ok], m[ok]] = c[ok]
+        b, m = b[~ok], m[~ok]
     return fits, centre + origin
 
 
