@@ -411,3 +411,23 @@ def test_an_f_word_repeating_the_feed_in_effect_does_not_break_an_arc(repeat, ar
         assert records[0].last_line == 34
     if arcs:
         assert _deviation(text, out) <= 0.01
+
+
+def test_an_arc_over_a_change_of_feed_is_kept_as_its_lines(monkeypatch):
+    """The re-read check compares the feed too: were the search to join lines across a new F (here it is
+    made blind to F words), the arc that would run the second feed's lines at the first is kept as its
+    lines, and every move of the output runs at the feed it had."""
+    from toolpath.smooth import arc_weld
+
+    lines = polygon_program(60).splitlines()
+    lines[34] += " F900"
+    text = "\n".join(lines) + "\n"
+    program = read_text(text)
+    monkeypatch.setattr(arc_weld, "_has_feed", lambda *_: False)
+    out, records, _, _, kept_as_lines = weld_arcs(program, program, 0.01)
+    assert kept_as_lines >= 1
+    assert all(r.last_line < 35 or r.first_line >= 35 for r in records)
+    before, after = read_text(text), read_text(out)
+    assert " F900" in out
+    np.testing.assert_array_equal(np.unique(after.states.feed[after.lines_of_points]),
+                                  np.unique(before.states.feed[before.lines_of_points]))

@@ -319,8 +319,9 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
 
 def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,
             read_options: ReaderOptions | None, start: Reading | None) -> list[ArcRecord]:
-    """Re-read the output: every point outside the arcs is where it was (else GCodeError); the arcs that
-    lie farther than the tolerance from the original (each record gets its exact deviation)."""
+    """Re-read the output: every point outside the arcs is where it was, at the feed it had (else
+    GCodeError); the arcs that lie farther than the tolerance from the original (each record gets its exact
+    deviation) or run at a feed another line they replace did not have."""
     def read(program_text: str) -> Program:
         return (start.snapshot() if start is not None else Reading(current.source, read_options)).read(program_text)
 
@@ -338,6 +339,17 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
     kept_final = ~np.isin(final.lines_of_points, arc_lines)
     if not np.array_equal(before.points[kept_before], final.points[kept_final]):
         raise GCodeError(current.source, 0, "internal check failed: welding arcs moved a point it does not own")
+    feed_before, feed_final = before.states.feed[before.lines_of_points], final.states.feed[final.lines_of_points]
+    # an arc runs at one feed: every line it replaces must have had it (else it is kept as its lines)
+    other_feed = []
+    for r, line in zip(records, arc_lines, strict=True):
+        replaced_feeds = feed_before[(before.lines_of_points >= r.first_line) & (before.lines_of_points <= r.last_line)]
+        if not np.array_equal(replaced_feeds, np.full_like(replaced_feeds, final.states.feed[line]), equal_nan=True):
+            other_feed.append(r)
+    if other_feed:
+        return other_feed
+    if not np.array_equal(feed_before[kept_before], feed_final[kept_final], equal_nan=True):
+        raise GCodeError(current.source, 0, "internal check failed: welding arcs changed the feed of a move")
     first_point = {int(line): k for k, line in enumerate(original.lines_of_points)}
     for r, line in zip(records, arc_lines, strict=True):
         a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
