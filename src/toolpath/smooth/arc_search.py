@@ -26,7 +26,7 @@ import numpy as np
 
 FIRST_WINDOW = 16      # ends a start measures at first (the window doubles while arcs fit near its end)
 LAST_WINDOW = 256      # the longest window
-SKIP_GAP = 8           # a start is measured unless the point this far on has no more blocks than it
+SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks
 CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
 STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
                        # measure fewer ends inside a long arc (each measures only past the last count)
@@ -69,27 +69,33 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
                 blocks[i], from_start[i] = blocks[i - 1] + 1, -1
         # inside a long arc every start has the same count, and a later one reaches about as far (an arc
         # from it is a part of the earlier one's): only the last starts of such a run are measured
-        ahead = chunk + SKIP_GAP
-        measured = chunk[(ahead >= n) | (blocks[np.minimum(ahead, n - 1)] > blocks[chunk])]
+        # (one of SKIP_GAP points that far on: a point no arc can end at, a noisy vertex, does not count)
+        ahead = np.minimum(chunk[:, None] + SKIP_GAP + np.arange(SKIP_GAP)[None, :], n - 1)
+        measured = chunk[(chunk + SKIP_GAP >= n) | (blocks[ahead].min(axis=1) > blocks[chunk])]
         results = {}
-        if len(measured):
-            # No start of the chunk can bring an end below ``known`` under the fewest blocks already found
-            # there: each start's count is at least the least over the chunk, so those ends are not measured.
-            least = blocks[max(measured[0] - 1, 0):measured[-1] + 1].min()  # the point before: by a line
-            above = np.flatnonzero(blocks[measured[0]:] > least + 1)
-            known = measured[0] + (int(above[0]) if len(above) else n - measured[0])
-            results = {i: (fits, centre) for i, fits, centre in _measured(
-                chain, measured, end, budget, min_segments, max_segments, max_radius, lookahead, known)}
+        groups = [measured]
+        if 1 < len(measured) < len(chunk) and blocks[measured[-1]] == blocks[measured].min():
+            # the end of a long arc: its last start first (no start of the chunk lowers its count), then the
+            # others only past what it reaches, rather than all of them measuring the next arc's length
+            groups = [measured[-1:], measured[:-1]]
+        for group in groups:
+            if not len(group):
+                continue
+            # No start of the group can bring an end below ``known`` under the fewest blocks already found
+            # there: each start's count is at least the least over the group, so those ends are not measured.
+            least = blocks[max(group[0] - 1, 0):group[-1] + 1].min()  # the point before: by a line
+            above = np.flatnonzero(blocks[group[0]:] > least + 1)
+            known = group[0] + (int(above[0]) if len(above) else n - group[0])
+            for i, fits, centre in _measured(chain, group, end, budget, min_segments, max_segments, max_radius,
+                                             lookahead, known, blocks > least + 1):
+                results[i] = fits, centre
+                if len(groups) > 1 and i == measured[-1]:
+                    _relax(blocks, from_start, centres, i, fits, centre)
         for i in chunk.tolist():
             if i > 0 and blocks[i - 1] + 1 < blocks[i]:
                 blocks[i], from_start[i] = blocks[i - 1] + 1, -1
-            if i not in results:
-                continue
-            fits, centre = results[i]
-            ends = np.flatnonzero(fits) + 1 + i
-            better = ends[blocks[i] + 1 < blocks[ends]]
-            blocks[better], from_start[better] = blocks[i] + 1, i
-            centres[better] = centre[better - i - 1]
+            if i in results:
+                _relax(blocks, from_start, centres, i, *results[i])
     for k in range(max(int(starts[-1]) + 1 if len(starts) else 1, 1), n):
         if blocks[k - 1] + 1 < blocks[k]:
             blocks[k], from_start[k] = blocks[k - 1] + 1, -1
@@ -104,13 +110,23 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
     return chosen[::-1]
 
 
+def _relax(blocks: np.ndarray, from_start: np.ndarray, centres: np.ndarray, i: int, fits: np.ndarray,
+           centre: np.ndarray) -> None:
+    """The ends an arc from ``i`` reaches in fewer blocks than found so far take it."""
+    ends = np.flatnonzero(fits) + 1 + i
+    better = ends[blocks[i] + 1 < blocks[ends]]
+    blocks[better], from_start[better] = blocks[i] + 1, i
+    centres[better] = centre[better - i - 1]
+
+
 def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segments: int, max_segments: int,
-              max_radius: float, lookahead: int, known: int):
+              max_radius: float, lookahead: int, known: int, open_end: np.ndarray):
     """Per start of ``chunk``, in order: (start, fits per end i+1.., centres).  Each start measures its ends
-    from ``known`` on (the earlier ones it cannot improve) in windows, each twice as long as the one before,
-    until no arc fits within ``lookahead`` of a window's last end or the longest allowed is reached.  A
-    window costs its ends times its last end's length, so a start inside a long arc, whose arcs end just
-    past ``known``, measures a few ends and not a block of them."""
+    from ``known`` on in windows, each twice as long as the one before, until no arc fits within
+    ``lookahead`` of a window's last end or the longest allowed is reached; only the ends where
+    ``open_end`` (those whose count a start of the chunk could lower) are measured, and a window whose last
+    ends are all closed goes on.  A window costs its open ends times its last end's length, so a start
+    inside a long arc, whose arcs end just past ``known``, measures a few ends and not a block of them."""
     limit = np.minimum(max_segments, end - chunk)  # the last end (j) each start may reach
     first = np.maximum(known - chunk, 1)
     fits = [np.zeros(max(int(n), 0), bool) for n in limit]
@@ -120,25 +136,30 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     while todo.any():
         rows = np.flatnonzero(todo)
         last = np.minimum(first + width - 1, limit)
+        ends = {int(r): np.flatnonzero(open_end[chunk[r] + np.arange(first[r], last[r] + 1)]) + first[r]
+                for r in rows}
+        rows = [r for r in rows if len(ends[r])]
         lo = 0
-        while lo < len(rows):  # as many starts as fit in CELLS: each costs its window times its last end
+        while lo < len(rows):  # as many starts as fit in CELLS: each costs its open ends times its last end
             hi, cells = lo + 1, 0
-            while hi < len(rows) and cells + (width[rows[hi]] * (last[rows[hi]] + 1)) <= CELLS:
-                cells += width[rows[hi]] * (last[rows[hi]] + 1)
+            while hi < len(rows) and cells + len(ends[rows[hi]]) * (last[rows[hi]] + 1) <= CELLS:
+                cells += len(ends[rows[hi]]) * (last[rows[hi]] + 1)
                 hi += 1
             part = rows[lo:hi]
-            j = first[part, None] + np.arange(int(width[part].max()))[None, :]
-            valid = j <= last[part, None]
-            ok, centre = _measure_ends(chain, chunk[part], np.where(valid, j, first[part, None]), valid, end,
-                                       budget, min_segments, max_radius)
+            j = np.zeros((len(part), max(len(ends[r]) for r in part)), np.int64)
+            valid = np.zeros(j.shape, bool)
             for k, row in enumerate(part):
-                span = slice(int(first[row]) - 1, int(last[row]))
-                fits[row][span] = ok[k, valid[k]]
-                centres[row][span] = centre[k, valid[k]]
+                j[k], valid[k, :len(ends[row])] = ends[row][0], True
+                j[k, :len(ends[row])] = ends[row]
+            ok, centre = _measure_ends(chain, chunk[part], j, valid, end, budget, min_segments, max_radius)
+            for k, row in enumerate(part):
+                fits[row][ends[row] - 1] = ok[k, valid[k]]
+                centres[row][ends[row] - 1] = centre[k, valid[k]]
             lo = hi
-        reach = np.array([int(np.flatnonzero(fits[r][:last[r]])[-1]) + 1 if fits[r][:last[r]].any() else 0
-                          for r in range(len(chunk))])
-        todo &= (reach >= last - lookahead) & (last < limit)
+        for r in np.flatnonzero(todo):
+            tail = np.arange(max(last[r] - lookahead, first[r]), last[r] + 1)  # the window's last ends
+            measured = open_end[chunk[r] + tail]
+            todo[r] = last[r] < limit[r] and (not measured.all() or bool(fits[r][tail - 1].any()))
         first, width = last + 1, np.minimum(2 * width, LAST_WINDOW)
     for k, i in enumerate(chunk.tolist()):
         yield i, fits[k], centres[k]
