@@ -54,8 +54,9 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
 
     Dynamic programming in the order of the starts: every arc into point ``i`` starts before it, so when
     the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed.  Exact but for one
-    shortcut: where the point ``SKIP_GAP`` on has no more blocks than a start (inside a long arc), that start
-    is not measured, as a later one reaches about as far."""
+    shortcut: where one of the ``SKIP_GAP`` points from ``SKIP_GAP`` on has no more blocks than a start
+    (inside a long arc), that start is not measured, as a later one reaches about as far; at the end of a
+    long arc its last start is measured first, the others only at the ends it leaves open."""
     n = len(chain.xy)
     blocks = np.full(n, n + 1, np.int64)
     blocks[0] = 0
