@@ -163,6 +163,9 @@ def _sets_motion(program: Program, line: int) -> bool:
 
 
 def _has_feed(program: Program, line: int) -> bool:
+    raw = program.lines[line - 1]
+    if "F" not in raw and "f" not in raw:  # most lines: no letter to tokenize for
+        return False
     return any(w.letter == "F" for w in tokenize(program.lines[line - 1].rstrip("\r\n"), program.source,
                                                  line).words)
 
