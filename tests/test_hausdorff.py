@@ -139,3 +139,16 @@ def test_pieced_measure_of_long_polylines_equals_the_whole_measure():
     spiked = walk.copy()
     spiked[400] += [0.0, 3.0]
     assert pieced_hausdorff(walk, spiked, piece=16) == float(hausdorff(walk, spiked))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pieced_measure_of_paths_passing_near_themselves_equals_the_whole_measure(seed):
+    """Each piece finds its stretch of the other path from distances bounded by the stretch near it, not
+    by the whole path: two and a half noisy turns against a coarser copy, one of them reversed (the
+    nearest segment may lie on another turn), measure exactly as the whole does."""
+    rng = np.random.default_rng(seed)
+    t, s = np.linspace(0.0, 5 * np.pi, 900), np.linspace(0.0, 5 * np.pi, 300)
+    a = np.c_[np.cos(t), np.sin(t)] * (10.0 + 0.02 * t[:, None]) + rng.normal(0.0, 0.05, (900, 2))
+    b = np.c_[np.cos(s), np.sin(s)] * (10.0 + 0.02 * s[:, None]) + rng.normal(0.0, 0.3, (300, 2))
+    assert pieced_hausdorff(a, b, piece=16) == float(hausdorff(a, b))
+    assert pieced_hausdorff(a, b[::-1], piece=16) == float(hausdorff(a, b))

@@ -218,9 +218,15 @@ def _directed_pieced(a: np.ndarray, b: np.ndarray, piece: int) -> float:
         return float(directed_hausdorff(a, b))
     low_b, high_b = np.minimum(b[:-1], b[1:]), np.maximum(b[:-1], b[1:])
     worst = 0.0
+    reach = float(point_to_polyline(a[:1], b)[0])  # the first point's distance, exact
     for start in range(0, len(a) - 1, piece):
         part = a[start:start + piece + 1]
-        ends = point_to_polyline(part, b)
+        # the piece's distances bounded from above by the stretch of B near it (a part of B only over-states
+        # a distance, so the stretch found from these bounds still holds every nearest segment); the last
+        # piece's reach covers this piece's first point, so the stretch is never empty
+        low, high = part.min(axis=0) - reach, part.max(axis=0) + reach
+        near = np.flatnonzero(np.all((low_b <= high) & (high_b >= low), axis=1))
+        ends = point_to_polyline(part, b[near[0]:near[-1] + 2] if len(near) else b)
         reach = float(((ends[:-1] + ends[1:] + np.hypot(*np.diff(part, axis=0).T)) / 2.0).max())
         low, high = part.min(axis=0) - reach, part.max(axis=0) + reach
         near = np.flatnonzero(np.all((low_b <= high) & (high_b >= low), axis=1))
