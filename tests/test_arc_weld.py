@@ -431,3 +431,41 @@ def test_an_arc_over_a_change_of_feed_is_kept_as_its_lines(monkeypatch):
     assert " F900" in out
     np.testing.assert_array_equal(np.unique(after.states.feed[after.lines_of_points]),
                                   np.unique(before.states.feed[before.lines_of_points]))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_probing_the_last_ends_of_long_windows_writes_as_few_blocks(seed, monkeypatch):
+    """From windows of GALLOP ends on, a start measures a window's last ends first and takes the others to
+    fit when an arc fits there: on 1,200 noisy points of three long arcs (the longest 500 segments) that
+    leaves the very arcs of measuring every end."""
+    from toolpath.smooth import arc_search
+
+    rng = np.random.default_rng(seed)
+    turn = np.concatenate([np.full(500, 0.004), np.full(400, -0.006), np.full(300, 0.003)])
+    heading = np.cumsum(turn)
+    xy = np.round(np.cumsum(np.column_stack([np.cos(heading), np.sin(heading)]) * 0.2, axis=0)
+                  + rng.normal(0.0, 0.001, (len(turn), 2)), 3)
+    n = len(xy)
+    chain = arc_search.Chain(xy, xy, xy, np.ones(n), np.full(n, 3), np.ones(n))
+
+    def blocks(arcs):
+        return len(arcs) + (n - 1) - sum(q - i for i, q, *_ in arcs)
+
+    probed = arc_search.fewest_blocks(chain, n - 1, 0.01, 2, 500, 1e4, 8)
+    monkeypatch.setattr(arc_search, "GALLOP", 10 ** 6)
+    measured = arc_search.fewest_blocks(chain, n - 1, 0.01, 2, 500, 1e4, 8)
+    assert blocks(probed) == blocks(measured) <= 8
+    assert [(i, q) for i, q, _ in probed] == [(i, q) for i, q, _ in measured]
+
+
+def test_a_long_dense_arc_welds_to_few_lines_within_the_tolerance():
+    """2,000 G1 lines along a circle of radius 100 mm in 3-decimal steps become a handful of arcs, every
+    one within the tolerance measured on the output as read back."""
+    t = np.linspace(0.0, 1.2 * np.pi, 2001)
+    moves = [f"G1 X{100 * np.cos(a):.3f} Y{100 * np.sin(a):.3f}" for a in t]
+    text = "\n".join(["G21 G90 G17", "G0 X100 Y0", "G1 Z-1 F300", moves[0] + " F1200", *moves[1:], "G0 Z5",
+                      "M30"]) + "\n"
+    program = read_text(text)
+    out, records, _, _, kept = weld_arcs(program, program, 0.01)
+    assert len(out.splitlines()) <= 10 and kept == 0
+    assert _deviation(text, out) <= 0.01

@@ -26,6 +26,8 @@ import numpy as np
 
 FIRST_WINDOW = 16      # ends a start measures at first (the window doubles while arcs fit near its end)
 LAST_WINDOW = 256      # the longest window
+GALLOP = 64            # from windows this long on, a window's last ends are measured first: where an arc fits
+                       # there, its other ends are taken to fit (the arcs chosen are measured again one by one)
 SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks
 CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
 STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
@@ -134,36 +136,59 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     centres = [np.zeros((max(int(n), 0), 2)) for n in limit]
     width = np.full(len(chunk), FIRST_WINDOW)
     todo = first <= limit
+    body_next = np.zeros(len(chunk), bool)  # a probed window whose last ends did not fit: its body is measured
     while todo.any():
         rows = np.flatnonzero(todo)
         last = np.minimum(first + width - 1, limit)
-        ends = {int(r): np.flatnonzero(open_end[chunk[r] + np.arange(first[r], last[r] + 1)]) + first[r]
-                for r in rows}
-        rows = [r for r in rows if len(ends[r])]
-        lo = 0
-        while lo < len(rows):  # as many starts as fit in CELLS: each costs its open ends times its last end
-            hi, cells = lo + 1, 0
-            while hi < len(rows) and cells + len(ends[rows[hi]]) * (last[rows[hi]] + 1) <= CELLS:
-                cells += len(ends[rows[hi]]) * (last[rows[hi]] + 1)
-                hi += 1
-            part = rows[lo:hi]
-            j = np.zeros((len(part), max(len(ends[r]) for r in part)), np.int64)
-            valid = np.zeros(j.shape, bool)
-            for k, row in enumerate(part):
-                j[k], valid[k, :len(ends[row])] = ends[row][0], True
-                j[k, :len(ends[row])] = ends[row]
-            ok, centre = _measure_ends(chain, chunk[part], j, valid, end, budget, min_segments, max_radius)
-            for k, row in enumerate(part):
-                fits[row][ends[row] - 1] = ok[k, valid[k]]
-                centres[row][ends[row] - 1] = centre[k, valid[k]]
-            lo = hi
-        for r in np.flatnonzero(todo):
-            tail = np.arange(max(last[r] - lookahead, first[r]), last[r] + 1)  # the window's last ends
-            measured = open_end[chunk[r] + tail]
-            todo[r] = last[r] < limit[r] and (not measured.all() or bool(fits[r][tail - 1].any()))
-        first, width = last + 1, np.minimum(2 * width, LAST_WINDOW)
+        tail_from = np.maximum(last - lookahead, first)  # a window's last ends
+        probe = (width >= GALLOP) & ~body_next
+        ends = {}
+        for r in rows:
+            span = np.arange(tail_from[r] if probe[r] else first[r],
+                             (tail_from[r] - 1 if body_next[r] else last[r]) + 1)
+            ends[int(r)] = span[open_end[chunk[r] + span]]
+        _measure_rows(chain, chunk, [r for r in rows if len(ends[r])], ends, last, fits, centres, end, budget,
+                      min_segments, max_radius)
+        advance = np.zeros(len(chunk), bool)
+        for r in rows:
+            tail = np.arange(tail_from[r], last[r] + 1)
+            tail_open, tail_fits = open_end[chunk[r] + tail], bool(fits[r][tail - 1].any())
+            if probe[r] and not (tail_open.any() and tail_fits):
+                body_next[r] = True  # the arcs end inside the window (or nothing there could tell): measure it
+                continue
+            if probe[r]:  # an arc fits at the window's end: its other open ends are taken to fit too
+                body = np.arange(first[r], tail_from[r])
+                body = body[open_end[chunk[r] + body]]
+                fits[r][body - 1], centres[r][body - 1] = True, np.nan
+            body_next[r], advance[r] = False, True
+            todo[r] = last[r] < limit[r] and (not tail_open.all() or tail_fits)
+        first = np.where(advance, last + 1, first)
+        width = np.where(advance, np.minimum(2 * width, LAST_WINDOW), width)
     for k, i in enumerate(chunk.tolist()):
         yield i, fits[k], centres[k]
+
+
+def _measure_rows(chain: Chain, chunk: np.ndarray, rows: list, ends: dict, last: np.ndarray, fits: list,
+                  centres: list, end: int, budget: float, min_segments: int, max_radius: float) -> None:
+    """Measure ``ends[r]`` of each start ``chunk[r]`` of ``rows`` into ``fits`` and ``centres``, as many
+    starts a batch as fit in CELLS (each costs its ends times its last end's length)."""
+    lo = 0
+    while lo < len(rows):
+        hi, cells = lo + 1, 0
+        while hi < len(rows) and cells + len(ends[rows[hi]]) * (last[rows[hi]] + 1) <= CELLS:
+            cells += len(ends[rows[hi]]) * (last[rows[hi]] + 1)
+            hi += 1
+        part = rows[lo:hi]
+        j = np.zeros((len(part), max(len(ends[r]) for r in part)), np.int64)
+        valid = np.zeros(j.shape, bool)
+        for k, row in enumerate(part):
+            j[k], valid[k, :len(ends[row])] = ends[row][0], True
+            j[k, :len(ends[row])] = ends[row]
+        ok, centre = _measure_ends(chain, chunk[part], j, valid, end, budget, min_segments, max_radius)
+        for k, row in enumerate(part):
+            fits[row][ends[row] - 1] = ok[k, valid[k]]
+            centres[row][ends[row] - 1] = centre[k, valid[k]]
+        lo = hi
 
 
 def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, valid: np.ndarray, end: int, budget: float,

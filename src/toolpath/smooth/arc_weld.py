@@ -230,7 +230,8 @@ def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: in
     chosen = []
     for i, q, centre in fewest_blocks(chain, end, tolerance - 2.0 * CHECK_CHORD, MIN_SEGMENTS, MAX_SEGMENTS,
                                       MAX_RADIUS, LOOKAHEAD):
-        arc = fit_arc(xy[first + i:first + q + 1], centre=centre)
+        # an end the search took to fit without measuring it has no centre: the arc is fitted afresh
+        arc = fit_arc(xy[first + i:first + q + 1], centre=centre if np.all(np.isfinite(centre)) else None)
         found = None if arc is None else _within(program, xy, lines, original_xy[i:q + 1], first + i, first + q,
                                                  tolerance, arc)
         if found is not None:  # the screen rounds as NumPy does; the line is written as Python formats
