@@ -305,6 +305,9 @@ def _arcs(arcwelder: str | None) -> None:
     Console().print(table)
     print(f"arcs only: {result['arcs_only_lines_per_s']:,.0f} lines/s on the G01-dense program; "
           f"wrote {OUT / 'arcs.json'}")
+    if (large := result.get("large_program")) and "lines_per_s" in large["ours"]:
+        print(f"arcs only, {large['lines_in']:,} lines: {large['ours']['lines_per_s']:,.0f} lines/s, "
+              f"{large['ours'].get('peak_rss_mb', float('nan')):.0f} MB peak, {large['ours']['lines_out']:,} lines out")
 
 
 def _programs(folder: Path, units: str | None) -> int:

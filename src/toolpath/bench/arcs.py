@@ -17,6 +17,8 @@ header included.  Per program: lines out, arcs, the largest two-sided distance o
 the input's (both read with chords within :data:`CHORD` of the arcs, the figure less that chord, each
 feed run measured exactly by :func:`toolpath.geometry.hausdorff.pieced_hausdorff`), seconds and peak
 memory (``/usr/bin/time``'s maximum resident set: the small ``time`` process is the one forked).
+The issue's speed and memory target is timed apart on a 1,000,000-line program of the same kind
+(:func:`_large_run`: lines per second end to end and peak memory, both tools, no deviation measured).
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ from toolpath.geometry.labels.windows import feed_runs
 TOLERANCE = 0.01  # mm: the issue's setting for both tools
 CHORD = 1e-5      # mm: arcs read back as chords this close to them, for the deviation
 CORPUS = Path(__file__).resolve().parents[3].parent / "shared" / "gcode-corpus"
-DENSE_LINES = 20_000  # the G01-dense program (our search costs about 2 ms a line on long smooth arcs)
+DENSE_LINES = 20_000  # the G01-dense program measured for its deviation too (exact, per run: slow on long runs)
+LARGE_LINES = 1_000_000  # the issue's speed and memory target: timed only
 _TIME = "/usr/bin/time"
 
 
@@ -166,8 +169,32 @@ def run_arcwelder(binary: Path, source: Path, folder: Path) -> dict:
     return result | {"explicit_copy_deviation_mm": copy_deviation}
 
 
+def _large_run(folder: Path, lines: int, seed: int, binary: Path | None) -> dict:
+    """The issue's speed and memory target: ``--arcs --method none`` on a ``lines``-line G01-dense program,
+    end to end in its own process (our own exact re-read check included; no deviation measured here, the
+    20,000-line row above has it), ArcWelder on the same program beside it."""
+    from toolpath.bench.gcode import write_dense
+
+    path = folder / "large.nc"
+    write_dense(path, lines, seed, spikes=0.0)
+    out = folder / "large.ours.nc"
+    ours = _timed([sys.executable, "-m", "toolpath.cli", "smooth", str(path), "-o", str(out), "--force",
+                   "--method", "none", "--arcs", "--tolerance", str(TOLERANCE)])
+    if ours["exit"] == 0:
+        ours |= _count(out) | {"lines_per_s": lines / ours["seconds"]}
+        out.unlink()
+    result = {"lines_in": lines, "seed": seed, "ours": ours}
+    if binary is not None:
+        theirs = _timed([str(binary), f"-r={2 * TOLERANCE:.6g}", "-y", "-d", "-p=NONE", "-l=ERROR", str(path),
+                         str(folder / "large.arcwelder.nc")])
+        if theirs["exit"] == 0:
+            theirs |= _count(folder / "large.arcwelder.nc") | {"lines_per_s": lines / theirs["seconds"]}
+        result["arcwelder"] = theirs
+    return result
+
+
 def measure(arcwelder: str | None = None, corpus: Path = CORPUS, dense_lines: int = DENSE_LINES,
-            seed: int = 0) -> dict:
+            seed: int = 0, large_lines: int = LARGE_LINES) -> dict:
     from toolpath.bench.gcode import write_dense
 
     binary, origin = find_arcwelder(arcwelder)
@@ -183,10 +210,12 @@ def measure(arcwelder: str | None = None, corpus: Path = CORPUS, dense_lines: in
             if binary is not None:
                 row["arcwelder"] = run_arcwelder(binary, path, folder)
             rows[path.name if path != dense else f"G01-dense ({dense_lines:,} lines, seed {seed})"] = row
+        large = _large_run(folder, large_lines, seed, binary) if large_lines else None
     dense_row = rows[next(reversed(rows))]
     return {"tolerance_mm": TOLERANCE, "chord_mm": CHORD, "arcwelder": origin,
             "arcwelder_flags": f"-r={2 * TOLERANCE} -y -d (on the explicit copy)",
             "corpus": str(corpus) if programs else f"{corpus} absent", "programs": rows,
             "arcs_only_lines_per_s": dense_row["lines_in"] / dense_row["ours"]["seconds"],
+            "large_program": large,
             "targets": {"cat_outline_lines_out": 512, "deviation_mm": TOLERANCE,
                         "arcs_only_lines_per_s_1M": 200_000, "peak_rss_mb_1M": 300}}
