@@ -271,7 +271,7 @@ def run(args: argparse.Namespace) -> dict:
     from toolpath.smooth.outputs import atomic
     from toolpath.smooth.report import summary, write_plot, write_report
     from toolpath.smooth.rewrite import RewriteOptions
-    from toolpath.smooth.stream import Combined, smooth_parts
+    from toolpath.smooth.stream import ARC_PART_BYTES, PART_BYTES, Combined, smooth_parts
 
     if not (np.isfinite(args.tolerance) and args.tolerance > 0):
         raise UsageError(f"--tolerance {args.tolerance}: must be a positive number of mm")
@@ -291,7 +291,9 @@ def run(args: argparse.Namespace) -> dict:
             # read past and copied through as written (toolpath.gcode.passing)
             reading = ReaderOptions(pass_through=True, dialect=args.dialect,
                                     whole_integer_words=args.whole_integer_words)
-            for part in smooth_parts(args.input, predict, options, reading, progress=_progress, units=args.units):
+            part_bytes = ARC_PART_BYTES if args.arcs else PART_BYTES
+            for part in smooth_parts(args.input, predict, options, reading, part_bytes, progress=_progress,
+                                     units=args.units):
                 units = part.program.units
                 if args.arcs:
                     _weld(part.result, part.program, args.tolerance, part.start)

@@ -32,6 +32,8 @@ from toolpath.geometry.labels.windows import feed_runs
 from toolpath.smooth.rewrite import Rewrite, RewriteOptions, controller_state_read, smooth_program
 
 PART_BYTES = 8 << 20  # ~350,000 lines of CAM output: a few tens of MB of working memory
+ARC_PART_BYTES = 2 << 20  # --arcs re-reads each part twice to check it: a 1,000,000-line program peaks at
+#                           218 MB (4 MB: 285, 8 MB: 401) for 518 lines out (513, 509: an arc ends at a part)
 # lines whose effect a resumed reading could not replay from the modal state of their row
 _STATEFUL = re.compile(r"#\s*(?:[\d.]+|<[^>]*>)\s*="  # a parameter set
                        r"|[gG]\s*0*(?:28|30|90|91)\s*\.\s*1"  # stored positions, arc centres
