@@ -55,10 +55,11 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
     arc or a G1 line each), no arc ending past point ``end``, each within ``budget`` by the screen.
 
     Dynamic programming in the order of the starts: every arc into point ``i`` starts before it, so when
-    the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed.  Exact but for one
-    shortcut: where one of the ``SKIP_GAP`` points from ``SKIP_GAP`` on has no more blocks than a start
-    (inside a long arc), that start is not measured, as a later one reaches about as far; at the end of a
-    long arc its last start is measured first, the others only at the ends it leaves open."""
+    the starts reach ``i`` its fewest blocks are known and the arcs from it are relaxed.  Exact but for two
+    shortcuts: where one of the ``SKIP_GAP`` points from ``SKIP_GAP`` on has no more blocks than a start
+    (inside a long arc), that start is not measured, as a later one reaches about as far (at the end of a
+    long arc its last start is measured first, the others only at the ends it leaves open); and in long
+    windows the ends before an end that fits are taken to fit (:func:`_measured`)."""
     n = len(chain.xy)
     blocks = np.full(n, n + 1, np.int64)
     blocks[0] = 0
@@ -127,9 +128,12 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     """Per start of ``chunk``, in order: (start, fits per end i+1.., centres).  Each start measures its ends
     from ``known`` on in windows, each twice as long as the one before, until no arc fits within
     ``lookahead`` of a window's last end or the longest allowed is reached; only the ends where
-    ``open_end`` (those whose count a start of the chunk could lower) are measured, and a window whose last
-    ends are all closed goes on.  A window costs its open ends times its last end's length, so a start
-    inside a long arc, whose arcs end just past ``known``, measures a few ends and not a block of them."""
+    ``open_end`` (those whose count a start of the chunk could lower) are measured, and a window with a
+    closed end among its last goes on.  A window costs its open ends times its last end's length, so a
+    start inside a long arc, whose arcs end just past ``known``, measures a few ends and not a block of
+    them.  From windows of ``GALLOP`` ends on, a window's last ends are measured first; where an arc fits
+    there, the window's other open ends are taken to fit (with no centre: the caller fits those afresh),
+    else they are measured in the next round."""
     limit = np.minimum(max_segments, end - chunk)  # the last end (j) each start may reach
     first = np.maximum(known - chunk, 1)
     fits = [np.zeros(max(int(n), 0), bool) for n in limit]
