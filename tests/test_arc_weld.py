@@ -469,3 +469,17 @@ def test_a_long_dense_arc_welds_to_few_lines_within_the_tolerance():
     out, records, _, _, kept = weld_arcs(program, program, 0.01)
     assert len(out.splitlines()) <= 10 and kept == 0
     assert _deviation(text, out) <= 0.01
+
+
+def test_an_arc_the_screen_chose_but_its_own_measure_rejects_is_counted(monkeypatch):
+    """An arc is measured again as it is written before it is used; one that fails there stays as its G1
+    lines and is counted with the arcs kept as lines, not dropped unseen."""
+    from toolpath.smooth import arc_weld
+
+    text = polygon_program(60)
+    program = read_text(text)
+    _, chosen, _, _, kept = weld_arcs(program, program, 0.01)
+    assert chosen and kept == 0
+    monkeypatch.setattr(arc_weld, "_within", lambda *_: None)
+    out, records, _, _, kept = weld_arcs(program, program, 0.01)
+    assert records == [] and kept == len(chosen) and out == text

@@ -195,8 +195,9 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     kept_as_lines = 0
     for xy, lines, first, last, open_end in _chains(current, switch_stable(current, read_options, start)):
         original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
-        for i, q, arc, deviation in _fewest_lines(current, xy, lines, original_xy, first, last, open_end,
-                                                  tolerance):
+        chosen, rejected = _fewest_lines(current, xy, lines, original_xy, first, last, open_end, tolerance)
+        kept_as_lines += rejected  # the screen chose them, their own measure as written did not
+        for i, q, arc, deviation in chosen:
             record = ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation)
             written[id(record)] = (xy, lines, i, q, arc)
             _write(current, xy, lines, i, q, arc, edits)
@@ -219,7 +220,8 @@ def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: in
     """The arcs over points ``first..last`` of a chain that leave the fewest lines
     (:func:`toolpath.smooth.arc_search.fewest_blocks`), each measured again as it is written.  The
     chain's last line stays a G1 unless ``open_end`` (the line after an arc must set its own motion mode,
-    or be one the tool may write ``G1`` on)."""
+    or be one the tool may write ``G1`` on).  Also how many arcs the screen chose that their own measure
+    rejected (kept as their lines)."""
     span = lines[first:last + 1].astype(np.int64)
     inch = program.states.inch[span - 1].astype(bool)
     before = np.append(span[1:] - 1, span[-1])  # an arc from point k is written on line L(k+1)
@@ -227,7 +229,7 @@ def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: in
                   np.where(inch, MM_PER_INCH, 1.0), decimals_of(program, span),
                   np.where(program.states.inch[before - 1].astype(bool), MM_PER_INCH, 1.0))
     end = (last if open_end else last - 1) - first
-    chosen = []
+    chosen, rejected = [], 0
     for i, q, centre in fewest_blocks(chain, end, tolerance - 2.0 * CHECK_CHORD, MIN_SEGMENTS, MAX_SEGMENTS,
                                       MAX_RADIUS, LOOKAHEAD):
         # an end the search took to fit without measuring it has no centre: the arc is fitted afresh
@@ -236,7 +238,9 @@ def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: in
                                                  tolerance, arc)
         if found is not None:  # the screen rounds as NumPy does; the line is written as Python formats
             chosen.append((first + i, first + q, *found))
-    return chosen
+        else:
+            rejected += 1
+    return chosen, rejected
 
 
 def _within(program: Program, xy, lines, original_xy, i: int, q: int, tolerance: float, arc: _Arc):

@@ -44,7 +44,7 @@ def summary(args, lines: int, result, times: tuple, machine: dict) -> dict:
         **({"arcs": {"fitted": len(arcs), "lines_replaced": sum(a.lines_replaced for a in arcs),
                      "largest_deviation_mm": max((a.deviation_mm for a in arcs), default=0.0),
                      "not_fitted_because": result.arcs_note,
-                     "kept_as_lines": getattr(result, "arcs_kept_as_lines", 0),  # rejected by the exact check
+                     "kept_as_lines": getattr(result, "arcs_kept_as_lines", 0),  # rejected as written or by the check
                      "rows": [asdict(a) for a in arcs]}}
            if getattr(args, "arcs", False) else {}),
         "machining_time_s": {"before": before, "after": after,
