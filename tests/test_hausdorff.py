@@ -1,6 +1,8 @@
 """The exact two-sided distance: hand cases where the answer lies inside a segment, and agreement with
 shapely's densified Hausdorff distance and with dense sampling on random polylines."""
 
+import importlib
+
 import numpy as np
 import pytest
 import shapely
@@ -10,6 +12,22 @@ from hypothesis.extra.numpy import arrays
 
 from toolpath.geometry import directed_hausdorff, hausdorff, point_to_polyline
 from toolpath.geometry.hausdorff import WHOLE_PAIRS, _far_out_of_band, moved_hausdorff, pieced_hausdorff
+
+# the module itself (the package exports a function of the same name)
+hausdorff_module = importlib.import_module("toolpath.geometry.hausdorff")
+
+
+@pytest.fixture(params=["compiled", "numpy"])
+def pieced_path(request, monkeypatch):
+    """pieced_hausdorff's compiled loops (numba, the ``fast`` extra) and its NumPy functions, in turn; how near
+    each must come to the whole measure: the NumPy path to the last bit, the loops (the same candidates, no
+    subdivision of long segments) within rounding."""
+    if request.param == "compiled":
+        if hausdorff_module.compiled_kernels() is None:
+            pytest.skip("numba is not installed (the fast extra): the compiled loops are not there to test")
+        return {"rel": 1e-12, "abs": 0.0}
+    monkeypatch.setattr(hausdorff_module, "compiled_kernels", lambda: None)
+    return {"rel": 0.0, "abs": 0.0}
 
 
 def dense(polyline: np.ndarray, per_segment: int = 400) -> np.ndarray:
@@ -123,7 +141,7 @@ def test_moved_hand_cases():
         moved_hausdorff([line, line], [line, line[:-1]])
 
 
-def test_pieced_measure_of_long_polylines_equals_the_whole_measure():
+def test_pieced_measure_of_long_polylines_equals_the_whole_measure(pieced_path):
     """A circle as 1,000 fine chords against 100 coarse ones (sag R(1 - cos(pi/100)) = 0.0049 mm at R 10),
     and a wandering line against a copy with one spike, hairpin legs included: measured in pieces against
     the stretch that can hold the nearest points, the figure is the whole measure's to the last bit."""
@@ -133,16 +151,16 @@ def test_pieced_measure_of_long_polylines_equals_the_whole_measure():
     assert len(fine) * len(coarse) > WHOLE_PAIRS
     pieced = pieced_hausdorff(fine, coarse)
     assert pieced == pytest.approx(10.0 * (1 - np.cos(np.pi / 100)), rel=1e-6)
-    assert pieced == float(hausdorff(fine, coarse))
+    assert pieced == pytest.approx(float(hausdorff(fine, coarse)), **pieced_path)
     rng = np.random.default_rng(5)
     walk = np.cumsum(rng.normal(0.0, 1.0, (800, 2)), axis=0)
     spiked = walk.copy()
     spiked[400] += [0.0, 3.0]
-    assert pieced_hausdorff(walk, spiked, piece=16) == float(hausdorff(walk, spiked))
+    assert pieced_hausdorff(walk, spiked, piece=16) == pytest.approx(float(hausdorff(walk, spiked)), **pieced_path)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_pieced_measure_of_paths_passing_near_themselves_equals_the_whole_measure(seed):
+def test_pieced_measure_of_paths_passing_near_themselves_equals_the_whole_measure(seed, pieced_path):
     """Each piece finds its stretch of the other path from distances bounded by the stretch near it, not
     by the whole path: two and a half noisy turns against a coarser copy, one of them reversed (the
     nearest segment may lie on another turn), measure exactly as the whole does."""
@@ -150,5 +168,24 @@ def test_pieced_measure_of_paths_passing_near_themselves_equals_the_whole_measur
     t, s = np.linspace(0.0, 5 * np.pi, 900), np.linspace(0.0, 5 * np.pi, 300)
     a = np.c_[np.cos(t), np.sin(t)] * (10.0 + 0.02 * t[:, None]) + rng.normal(0.0, 0.05, (900, 2))
     b = np.c_[np.cos(s), np.sin(s)] * (10.0 + 0.02 * s[:, None]) + rng.normal(0.0, 0.3, (300, 2))
-    assert pieced_hausdorff(a, b, piece=16) == float(hausdorff(a, b))
-    assert pieced_hausdorff(a, b[::-1], piece=16) == float(hausdorff(a, b))
+    whole = float(hausdorff(a, b))
+    assert pieced_hausdorff(a, b, piece=16) == pytest.approx(whole, **pieced_path)
+    assert pieced_hausdorff(a, b[::-1], piece=16) == pytest.approx(whole, **pieced_path)
+
+
+def test_compiled_pieced_loops_on_hand_cases():
+    """The compiled loops alone: a chord cutting a square corner is 2.5 from the corner path (its middle to
+    either leg) and the corner's vertex 5 / sqrt(2) from the chord; a line shifted by 0.3 is 0.3 off both ways
+    whatever the pieces."""
+    kernels = hausdorff_module.compiled_kernels()
+    if kernels is None:
+        pytest.skip("numba is not installed (the fast extra): the compiled loops are not there to test")
+    corner = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 5.0]])
+    chord = np.array([[0.0, 0.0], [5.0, 5.0]])
+    assert kernels.directed_pieced(chord, corner, 32) == pytest.approx(2.5)
+    assert kernels.directed_pieced(corner, chord, 32) == pytest.approx(5.0 / np.sqrt(2.0))
+    line = np.c_[np.linspace(0.0, 10.0, 97), np.zeros(97)]
+    shifted = np.c_[np.linspace(0.0, 10.0, 41), np.full(41, 0.3)]
+    for piece in (1, 3, 32):
+        assert kernels.directed_pieced(line, shifted, piece) == pytest.approx(0.3)
+        assert kernels.directed_pieced(shifted, line, piece) == pytest.approx(0.3)

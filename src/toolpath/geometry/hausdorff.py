@@ -210,7 +210,21 @@ def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32) -> float:
     a, b = np.asarray(a, float), np.asarray(b, float)
     if len(a) * len(b) <= WHOLE_PAIRS:
         return float(hausdorff(a, b))
+    kernels = compiled_kernels()
+    if kernels is not None and len(a) >= 2 and len(b) >= 2:  # the same candidates in compiled loops
+        a, b = np.ascontiguousarray(a[:, :2]), np.ascontiguousarray(b[:, :2])
+        return max(float(kernels.directed_pieced(a, b, piece)), float(kernels.directed_pieced(b, a, piece)))
     return max(_directed_pieced(a, b, piece), _directed_pieced(b, a, piece))
+
+
+def compiled_kernels():
+    """:mod:`toolpath.geometry.hausdorff_kernels` when numba is installed (the ``fast`` extra), else None:
+    the NumPy functions here measure the same, more slowly."""
+    try:
+        from toolpath.geometry import hausdorff_kernels
+    except ImportError:
+        return None
+    return hausdorff_kernels
 
 
 def _directed_pieced(a: np.ndarray, b: np.ndarray, piece: int) -> float:

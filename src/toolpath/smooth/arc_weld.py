@@ -31,6 +31,7 @@ import numpy as np
 from toolpath.gcode.edit import movable_lines, program_coordinates
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.lexer import tokenize
+from toolpath.gcode.program import Lines
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
@@ -49,6 +50,10 @@ MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose pre
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
 _INVERSE_TIME = re.compile(r"G\s*0*93(?![\d.])", re.IGNORECASE)
 _LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
+# a line an arc may replace holds no block delete and no comment: a ``/`` line runs or not by the switch; a
+# comment may be a MSG or DEBUG the operator sees
+_NOT_BARE = re.compile(r"[/(;]")
+_LETTER_F = re.compile(r"[Ff]")
 
 
 @dataclass
@@ -104,12 +109,6 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
     return _Arc(centre + origin, radius, sweep)
 
 
-def _bare(raw: str) -> bool:
-    """No block delete and no comment: a line an arc may replace without dropping what a controller reads
-    (a ``/`` line runs or not by the switch; a comment may be a MSG or DEBUG the operator sees)."""
-    return not any(c in raw for c in "/(;")
-
-
 def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int, bool]]:
     """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are plain G1 lines in absolute
     mode, consecutive from ``L(i+1)`` on (lines before it that leave X and Y where they are, a plunge, stay),
@@ -118,40 +117,63 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
     each the same with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``:
     the line after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's, or is a bare G1 line
     that moves nowhere, which may be given a ``G1``)."""
-    movable = movable_lines(program) & np.array([_bare(raw) for raw in program.lines], bool)
-    stable = np.ones(len(program.lines) + 1, bool) if stable is None else stable
+    count = len(program.lines)
+    movable = movable_lines(program) & ~_lines_holding(program, _NOT_BARE)[1:]
+    stable = np.ones(count + 1, bool) if stable is None else stable
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
     # an F word that repeats the feed in effect changes nothing a controller does (ArcWelder drops it too),
     # except in inverse time (G93), where F is each move's own time
     inverse_time = bool(_INVERSE_TIME.search("".join(program.lines)))
-    feed = program.states.feed
-
-    def new_feed(line: int) -> bool:
-        return _has_feed(program, line) and (inverse_time or feed[line] != feed[line - 1])
-
+    feed, absolute = program.states.feed, program.states.absolute
+    has_feed = _feed_lines(program)
+    new_feed = has_feed.copy()  # index = line
+    if not inverse_time:
+        new_feed[1:] &= feed[1:] != feed[:-1]
+    # per line (index = line): a plain G1 move in absolute mode, where the tool stands the same either way
+    plain = np.zeros(count + 1, bool)
+    plain[1:] = movable & absolute[1:] & stable[1:]
+    # lines between two points are plain G1 moves to where the tool stands (a CAM's repeated corner): an arc
+    # passes over them as over the lines it replaces; ``blocking[:k]`` counts the lines up to k that may not
+    blocking = np.concatenate([[0], np.cumsum(~(plain & ~has_feed))])
     out = []
     for xy, lines in feed_runs(program):
+        lines = lines.astype(np.int64)
         replaceable, joined = np.zeros(len(lines), bool), np.zeros(len(lines), bool)
-        for k in range(1, len(lines)):
-            line = int(lines[k])
-            replaceable[k] = bool(movable[line - 1]) and program.states[line].absolute \
-                and bool(stable[line]) and bool(stable[line - 1])
-            # lines between two points are plain G1 moves to where the tool stands (a CAM's repeated corner):
-            # an arc passes over them as over the lines it replaces
-            joined[k] = all(bool(movable[gap - 1]) and program.states[gap].absolute and bool(stable[gap])
-                            and not _has_feed(program, gap) for gap in range(int(lines[k - 1]) + 1, line))
+        replaceable[1:] = plain[lines[1:]] & stable[lines[1:] - 1]
+        # no blocking line strictly between (two points of one line: none between)
+        joined[1:] = (lines[1:] <= lines[:-1] + 1) | (blocking[lines[1:]] == blocking[lines[:-1] + 1])
+        extends = replaceable & joined & ~new_feed[lines]
         k = 1
         while k < len(lines):
             if not replaceable[k]:
                 k += 1
                 continue
             i, k = k - 1, k + 1
-            while k < len(lines) and replaceable[k] and joined[k] and not new_feed(int(lines[k])):
+            while k < len(lines) and extends[k]:
                 k += 1
             after = int(lines[k - 1]) + 1
             # a bare plain G1 line after it (one that moves nowhere, so in no run) takes a written G1 as well
-            out.append((xy, lines, i, k - 1, after > len(program.lines) or _sets_motion(program, after)
-                        or (bool(movable[after - 1]) and program.states[after].absolute)))
+            out.append((xy, lines, i, k - 1, after > count or _sets_motion(program, after)
+                        or (bool(movable[after - 1]) and bool(absolute[after]))))
+    return out
+
+
+def _lines_holding(program: Program, pattern: re.Pattern) -> np.ndarray:
+    """Per line (index = line number, 0 unused): whether the pattern occurs in it (its ending included)."""
+    lines = program.lines
+    text = lines.text if isinstance(lines, Lines) else "".join(lines)
+    starts = lines.starts if isinstance(lines, Lines) else np.cumsum([0] + [len(raw) for raw in lines])
+    found = np.zeros(len(lines) + 1, bool)
+    at = np.fromiter((m.start() for m in pattern.finditer(text)), np.int64)
+    found[np.searchsorted(starts, at, side="right")] = True
+    return found
+
+
+def _feed_lines(program: Program) -> np.ndarray:
+    """Per line (index = line number): whether it holds an F word (only lines with the letter are read)."""
+    out = np.zeros(len(program.lines) + 1, bool)
+    for line in np.flatnonzero(_lines_holding(program, _LETTER_F)):
+        out[line] = _has_feed(program, int(line))
     return out
 
 
