@@ -301,7 +301,7 @@ def test_the_screen_measures_each_arc_as_the_scalar_bound_does(seed, noise, deci
     p = xy[index] - xy[starts][:, None, :]
     centre = np.array([[-xy[s] * 1.001 for _ in range(size)] for s in starts])  # near the origin, local
     b, k = np.divmod(np.arange(len(starts) * size), size)  # every start with every end, as candidates
-    vector = _bound(chain, starts[b], index[b], p[b], p[b], centre[b, k], k + 1).reshape(len(starts), size)
+    vector = _bound(chain, starts, index, p, p, b, centre[b, k], k + 1).reshape(len(starts), size)
     for b, s in enumerate(starts):
         for j in range(1, size + 1):
             written = xy[s] + np.round(centre[b, j - 1] * 10.0 ** decimals) / 10.0 ** decimals
@@ -483,3 +483,60 @@ def test_an_arc_the_screen_chose_but_its_own_measure_rejects_is_counted(monkeypa
     monkeypatch.setattr(arc_weld, "_within", lambda *_: None)
     out, records, _, _, kept = weld_arcs(program, program, 0.01)
     assert records == [] and kept == len(chosen) and out == text
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_screen_gives_the_numpy_screens_bounds_to_the_bit(seed, monkeypatch):
+    """The screen's compiled loops (numba, the fast extra) and its NumPy arrays give every candidate the same
+    bound to the last bit; with a budget, the loops stop a candidate past it, and each candidate fits
+    (bound <= budget) under both or neither."""
+    from toolpath.smooth import arc_search
+
+    if arc_search.compiled_kernels() is None:
+        pytest.skip("numba is not installed (the fast extra): the compiled loops are not there to test")
+    rng = np.random.default_rng(seed)
+    n, size = 40, 24
+    t = np.cumsum(rng.uniform(0.02, 0.1, n))
+    xy = np.round(np.column_stack([6.0 * np.cos(t), 6.0 * np.sin(t)]) + rng.normal(0.0, 0.004, (n, 2)), 3)
+    chain = arc_search.Chain(xy, xy + rng.normal(0.0, 0.002, (n, 2)), xy, np.ones(n), np.full(n, 3), np.ones(n))
+    starts = np.array([0, 5, 11])
+    index = starts[:, None] + np.arange(size + 1)[None, :]
+    p = xy[index] - xy[starts][:, None, :]
+    o = chain.original[index] - xy[starts][:, None, :]
+    rows, k = np.divmod(np.arange(len(starts) * size), size)
+    centre = -xy[starts][rows] * rng.uniform(0.999, 1.001, (len(rows), 1))
+    args = (chain, starts, index, p, o, rows, centre, k + 1)
+    compiled = arc_search._bound(*args)
+    monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
+    plain = arc_search._bound(*args)
+    assert np.isfinite(plain).sum() >= 10  # arcs measured, not only refused
+    assert np.array_equal(compiled, plain)
+    budget = float(np.median(plain[np.isfinite(plain)]))
+    monkeypatch.undo()
+    stopped = arc_search._bound(*args, budget)
+    assert np.array_equal(stopped <= budget, plain <= budget)
+    assert np.array_equal(stopped[plain <= budget], plain[plain <= budget])
+
+
+def test_arcs_without_numba_are_the_arcs_with_it(monkeypatch):
+    """The core install (no numba) welds the same arcs with the same figures: a long noisy arc whose check
+    runs pieced (the compiled measure where numba is installed) and the screen's bounds, both paths."""
+    import importlib
+
+    from toolpath.smooth import arc_search
+
+    hausdorff_module = importlib.import_module("toolpath.geometry.hausdorff")  # the package exports a function
+    if arc_search.compiled_kernels() is None or hausdorff_module.compiled_kernels() is None:
+        pytest.skip("numba is not installed (the fast extra): only the NumPy path is there")
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 2.5, 1500)
+    pts = np.column_stack([40.0 * np.cos(t), 40.0 * np.sin(t)]) + rng.normal(0.0, 0.002, (1500, 2))
+    text = "G21 G90 G17\nG0 X40 Y0\nG1 Z-1 F300\n" + "".join(f"G1 X{x:.4f} Y{y:.4f}\n" for x, y in pts) + "M30\n"
+    program = read_text(text)
+    compiled = weld_arcs(program, program, 0.01)
+    assert any(r.lines_replaced > 400 for r in compiled[1])  # long enough to be measured in pieces
+    monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
+    monkeypatch.setattr(hausdorff_module, "compiled_kernels", lambda: None)
+    plain = weld_arcs(program, program, 0.01)
+    assert plain[0] == compiled[0]
+    assert [r.deviation_mm for r in plain[1]] == pytest.approx([r.deviation_mm for r in compiled[1]], rel=1e-12)

@@ -99,10 +99,9 @@ def _roots(a, b, c, out):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _directed_piece(a, start, stop, b, lo, hi, best):  # pragma: no cover - compiled
-    """``max(best, h(A', B'))`` for the points ``start .. stop`` of ``a`` and the segments ``lo .. hi - 1`` of
-    ``b`` (a stretch holding every segment that can be nearest to a point of the piece)."""
-    for p in range(start, stop + 1):
-        best = max(best, _to_segments(a[p, 0], a[p, 1], b, lo, hi))
+    """``max(best, h(A', B'))`` for the segments ``start .. stop - 1`` of ``a`` and the segments ``lo .. hi - 1``
+    of ``b`` (a stretch holding every segment that can be nearest to a point of the piece), ``best`` at least
+    the largest distance of the piece's points."""
     near = np.empty(hi - lo, np.int64)
     qj, qk, roots = np.empty(3), np.empty(3), np.empty(2)
     for i in range(start, stop):
@@ -169,7 +168,12 @@ def directed_pieced(a, b, piece):  # pragma: no cover - compiled
     :func:`toolpath.geometry.hausdorff._directed_pieced`, whose docstring says why the stretch is enough)."""
     worst = 0.0
     reach = _to_segments(a[0, 0], a[0, 1], b, 0, b.shape[0] - 1)  # the first point's distance, exact
-    for start in range(0, a.shape[0] - 1, piece):
+    pieces = (a.shape[0] - 2) // piece + 1
+    stretches = np.empty((pieces, 2), np.int64)
+    # first every piece's stretch and the distances of its points (exact): the largest of them lets the
+    # segments' bounds skip nearly every segment below
+    for number in range(pieces):
+        start = number * piece
         stop = min(start + piece, a.shape[0] - 1)
         low_x, low_y, high_x, high_y = np.inf, np.inf, -np.inf, -np.inf
         for p in range(start, stop + 1):
@@ -186,5 +190,11 @@ def directed_pieced(a, b, piece):  # pragma: no cover - compiled
             reach = max(reach, (previous + here + length) / 2.0)
             previous = here
         lo, hi = _stretch(b, low_x - reach, low_y - reach, high_x + reach, high_y + reach)
-        worst = _directed_piece(a, start, stop, b, lo, hi, worst)
+        stretches[number, 0], stretches[number, 1] = lo, hi
+        for p in range(start, stop + 1):
+            worst = max(worst, _to_segments(a[p, 0], a[p, 1], b, lo, hi))
+    for number in range(pieces):
+        start = number * piece
+        stop = min(start + piece, a.shape[0] - 1)
+        worst = _directed_piece(a, start, stop, b, stretches[number, 0], stretches[number, 1], worst)
     return worst

@@ -13,11 +13,12 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True)
-def spiral_bounds(p, o, rows, c, cw, written_end, j):  # pragma: no cover - compiled
+def spiral_bounds(p, o, rows, c, cw, written_end, j, budget):  # pragma: no cover - compiled
     """Per candidate ``n``: the bound of the arc about ``c[n]`` (written ``cw[n]``) from local 0 to
     ``written_end[n]``, over the points ``p[rows[n], :j[n] + 1]`` it was fitted to and the original's
     ``o[rows[n], :j[n] + 1]`` (all local to the start); inf where the vertices do not turn one way inside the
-    arc's span."""
+    arc's span.  A candidate stops at its first vertex or segment past ``budget`` (it cannot fit: the figure
+    returned is then only some value above the budget)."""
     out = np.empty(len(j))
     for n in range(len(j)):
         b, last = rows[n], j[n]
@@ -66,11 +67,16 @@ def spiral_bounds(p, o, rows, c, cw, written_end, j):  # pragma: no cover - comp
             inside = max(r_a, r_b) - nearest
             outside = max(d_a, d_b) - min(r_a, r_b)
             worst = max(worst, abs(d_b - r_b), max(inside, outside))
+            if worst > budget:
+                break
             ax, ay, d_a, r_a = bx, by, d_b, r_b
         if one_way and not theta < _TWO_PI - 1e-9:  # the turn from the first vertex to the last
             one_way = False
         if not one_way:
             out[n] = np.inf
+            continue
+        if worst > budget:
+            out[n] = worst
             continue
         out[n] = max(worst, np.hypot(ax - ex, ay - ey))  # the last vertex against the end as written
     return out

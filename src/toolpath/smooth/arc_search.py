@@ -233,7 +233,7 @@ def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, valid: np.nda
             reach = np.sqrt(np.maximum((max_radius * (1.0 - 1e-9)) ** 2 - half[b, m] ** 2, 0.0))
             t = -np.sign(np.where(inner[b, m], along[b, m], 0.0).sum(axis=-1)) * reach
         c = chord[b, m] / 2.0 + t[:, None] * normal[b, m]
-        bound = _bound(chain, starts, index, p, o, b, c, j[b, m])
+        bound = _bound(chain, starts, index, p, o, b, c, j[b, m], budget)
         ok = (bound <= budget) & (np.hypot(c[:, 0], c[:, 1]) <= max_radius) & np.isfinite(bound)
         fits[b[ok], m[ok]] = True
         centre[b[ok], m[ok]] = c[ok]
@@ -273,11 +273,12 @@ def _golden(a, miss, inner, least, half) -> np.ndarray:
     return np.where(f1 < f2, x1, x2)
 
 
-def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray) -> np.ndarray:
+def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray, budget: float = np.inf) -> np.ndarray:
     """:func:`toolpath.smooth.arc_weld.spiral_bound` of each candidate ``n`` (the arc about ``c[n]`` from
     point ``starts[rows[n]]`` to ``starts[rows[n]] + j[n]``, as written), its points ``p[rows[n], :j[n] + 1]``
     (local to the start; ``o``: the original's) at ``index[rows[n]]`` of the chain.  In compiled loops where
-    numba is installed (:mod:`toolpath.smooth.arc_kernels`), else in NumPy arrays: the same arithmetic."""
+    numba is installed (:mod:`toolpath.smooth.arc_kernels`), else in NumPy arrays: the same arithmetic (the
+    loops stop a candidate once past ``budget``: its figure is then only some value above it)."""
     n = np.arange(len(j))
     qi = index[rows, j]
     power = (10.0 ** chain.decimals[qi])[:, None]
@@ -287,7 +288,7 @@ def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray) -> np.ndar
     written_end = p[rows, j] + (np.round(target * power) / power - target) * chain.end_scale[qi][:, None]
     kernels = compiled_kernels()
     if kernels is not None:
-        return kernels.spiral_bounds(p, o, rows, c, cw, written_end, j)
+        return kernels.spiral_bounds(p, o, rows, c, cw, written_end, j, budget)
     p, o = p[rows], o[rows]
     k = np.arange(p.shape[1])
     upto = k[None, :] <= j[:, None]  # (N, K+1): the vertices of each candidate

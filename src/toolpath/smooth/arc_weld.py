@@ -123,7 +123,7 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
     # an F word that repeats the feed in effect changes nothing a controller does (ArcWelder drops it too),
     # except in inverse time (G93), where F is each move's own time
-    inverse_time = bool(_INVERSE_TIME.search("".join(program.lines)))
+    inverse_time = bool(_INVERSE_TIME.search(_text(program)))
     feed, absolute = program.states.feed, program.states.absolute
     has_feed = _feed_lines(program)
     new_feed = has_feed.copy()  # index = line
@@ -158,10 +158,31 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
     return out
 
 
+def _text(program: Program) -> str:
+    lines = program.lines
+    return lines.text if isinstance(lines, Lines) else "".join(lines)
+
+
+def _edited(program: Program, edits: dict[int, str]) -> str:
+    """The program's text with line ``k`` replaced by ``edits[k]``."""
+    lines = program.lines
+    if isinstance(lines, Lines):
+        return lines.joined(edits)
+    return "".join(edits.get(n, raw) for n, raw in enumerate(lines, start=1))
+
+
+def _last_point_of(program: Program, lines: np.ndarray) -> np.ndarray:
+    """The index of the last point each of ``lines`` reaches (every one reaches one)."""
+    found = np.searchsorted(program.lines_of_points, lines, side="right") - 1
+    if np.any(found < 0) or not np.array_equal(program.lines_of_points[found], lines):
+        raise ValueError("a line that reaches no point")
+    return found
+
+
 def _lines_holding(program: Program, pattern: re.Pattern) -> np.ndarray:
     """Per line (index = line number, 0 unused): whether the pattern occurs in it (its ending included)."""
     lines = program.lines
-    text = lines.text if isinstance(lines, Lines) else "".join(lines)
+    text = _text(program)
     starts = lines.starts if isinstance(lines, Lines) else np.cumsum([0] + [len(raw) for raw in lines])
     found = np.zeros(len(lines) + 1, bool)
     at = np.fromiter((m.start() for m in pattern.finditer(text)), np.int64)
@@ -204,19 +225,18 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     GCodeError
         When the re-read output moved a point outside the arcs (an internal error: nothing should be written).
     """
-    if _ABSOLUTE_CENTRES.search("".join(current.lines)):
-        return "".join(current.lines), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
+    if _ABSOLUTE_CENTRES.search(_text(current)):
+        return _text(current), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
     # the re-read check reads the arcs as chords within CHECK_CHORD of them (whatever the caller's tolerance)
     read_options = replace(read_options or (start.options if start is not None else ReaderOptions()),
                            chord_tolerance=CHECK_CHORD)
     start = start.with_options(read_options) if start is not None else None
-    point_of_line = {int(line): k for k, line in enumerate(original.lines_of_points)}
     edits: dict[int, str] = {}
     records: list[ArcRecord] = []
     written: dict[int, tuple] = {}  # per arc, what wrote it
     kept_as_lines = 0
     for xy, lines, first, last, open_end in _chains(current, switch_stable(current, read_options, start)):
-        original_xy = np.array([original.points[point_of_line[int(line)], :2] for line in lines[first:last + 1]])
+        original_xy = original.points[_last_point_of(original, lines[first:last + 1]), :2]
         chosen, rejected = _fewest_lines(current, xy, lines, original_xy, first, last, open_end, tolerance)
         kept_as_lines += rejected  # the screen chose them, their own measure as written did not
         for i, q, arc, deviation in chosen:
@@ -224,7 +244,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
             written[id(record)] = (xy, lines, i, q, arc)
             _write(current, xy, lines, i, q, arc, edits)
             records.append(record)
-    text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
+    text = _edited(current, edits)
     while records and (failed := _verify(text, current, original, records, tolerance, read_options, start)):
         # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
         # (the line after an arc may be the next arc's first) and checked again
@@ -233,7 +253,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
         edits = {}
         for record in records:
             _write(current, *written[id(record)], edits)
-        text = "".join(edits.get(n, raw) for n, raw in enumerate(current.lines, start=1))
+        text = _edited(current, edits)
     return text, records, sorted(edits), None, kept_as_lines
 
 
@@ -357,7 +377,7 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
 
     final = read(text)
     # the input's own arcs compared as chords of one fineness: read both at the check's (the caller's may differ)
-    before = read("".join(current.lines))
+    before = read(_text(current))
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
     for r in records:
@@ -380,9 +400,9 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         return other_feed
     if not np.array_equal(feed_before[kept_before], feed_final[kept_final], equal_nan=True):
         raise GCodeError(current.source, 0, "internal check failed: welding arcs changed the feed of a move")
-    first_point = {int(line): k for k, line in enumerate(original.lines_of_points)}
     for r, line in zip(records, arc_lines, strict=True):
-        a, b = first_point[r.first_line] - 1, first_point[r.last_line]  # the arc's start point and its end
+        a, b = _last_point_of(original, np.array([r.first_line, r.last_line]))  # the point each line reaches
+        a -= 1  # the arc's start point: the one before its first line's
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
         # the chords lie within CHECK_CHORD of the arc the controller runs: the bound of its distance
         r.deviation_mm = pieced_hausdorff(original.points[a:b + 1, :2], new) + CHECK_CHORD

@@ -25,6 +25,7 @@ import numpy as np
 from toolpath.gcode.edit import axis_words, movable_lines, program_coordinates, substitute_plain_xy, substitute_xy
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.expressions import controller_name
+from toolpath.gcode.program import Lines
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt_many
@@ -134,12 +135,17 @@ def switch_stable(program: Program, read_options: ReaderOptions | None, start: R
     """Per line (index = line, 0 the start): True where the line is no ``/`` line and the tool stands at
     the same place after it with the block-delete switch off (``program``, as read) and on.  Without a
     ``/`` line, every line."""
-    deleted = np.array([False] + [raw.lstrip(" \t").startswith("/") for raw in program.lines])
+    lines = program.lines
+    text = lines.text if isinstance(lines, Lines) else "".join(lines)
+    deleted = np.zeros(len(lines) + 1, bool)
+    if "/" not in text:  # most programs: no line to look at
+        return ~deleted
+    deleted[1:] = [raw.lstrip(" \t").startswith("/") for raw in lines]
     if not deleted.any():
         return ~deleted
     switched = replace(read_options or ReaderOptions(), block_delete=True)
     reading = start.with_options(switched) if start is not None else Reading(program.source, switched)
-    other = reading.read("".join(program.lines))
+    other = reading.read(text)
     return np.all(other.states.position == program.states.position, axis=1) & ~deleted
 
 
