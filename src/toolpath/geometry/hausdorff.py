@@ -27,6 +27,7 @@ from toolpath.geometry.deviation import point_to_polyline
 # (A segments) x (B segments) distances held at once when batching; chunks keep memory bounded
 _MASK_BUDGET = 4_000_000
 WHOLE_PAIRS = 100_000  # pieced_hausdorff measures polylines with fewer point pairs whole
+COMPILED_PIECE = 8  # segments a piece in compiled loops (their cost grows with the stretch a piece needs)
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -213,6 +214,7 @@ def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32) -> float:
     kernels = compiled_kernels()
     if kernels is not None and len(a) >= 2 and len(b) >= 2:  # the same candidates in compiled loops
         a, b = np.ascontiguousarray(a[:, :2]), np.ascontiguousarray(b[:, :2])
+        piece = min(piece, COMPILED_PIECE)
         return max(float(kernels.directed_pieced(a, b, piece)), float(kernels.directed_pieced(b, a, piece)))
     return max(_directed_pieced(a, b, piece), _directed_pieced(b, a, piece))
 

@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 _SLACK = 1e-12  # relative: a bound compared with a measured distance, as the NumPy path compares them
+_GROUP = 32  # segments of B per bounding box when looking for a piece's stretch
 
 
 @njit(cache=True)
@@ -33,10 +34,18 @@ def _segment_distance(px, py, ax, ay, bx, by):  # pragma: no cover - compiled
 @njit(cache=True)
 def _to_segments(px, py, b, lo, hi):  # pragma: no cover - compiled
     """Distance from (px, py) to the segments ``lo .. hi - 1`` of ``b`` (segment j runs b[j] -> b[j + 1])."""
-    best = np.inf
+    return _nearest(px, py, b, lo, hi)[0]
+
+
+@njit(cache=True)
+def _nearest(px, py, b, lo, hi):  # pragma: no cover - compiled
+    """:func:`_to_segments` and the first segment at that distance."""
+    best, at = np.inf, lo
     for j in range(lo, hi):
-        best = min(best, _segment_distance(px, py, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1]))
-    return best
+        d = _segment_distance(px, py, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+        if d < best:
+            best, at = d, j
+    return best, at
 
 
 @njit(cache=True)
@@ -98,45 +107,64 @@ def _roots(a, b, c, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _directed_piece(a, start, stop, b, lo, hi, best):  # pragma: no cover - compiled
+def _directed_piece(a, start, stop, b, lo, hi, best, at):  # pragma: no cover - compiled
     """``max(best, h(A', B'))`` for the segments ``start .. stop - 1`` of ``a`` and the segments ``lo .. hi - 1``
     of ``b`` (a stretch holding every segment that can be nearest to a point of the piece), ``best`` at least
-    the largest distance of the piece's points."""
+    the largest distance of the piece's points; ``at[p]``: a segment of B nearest to point p of A."""
     near = np.empty(hi - lo, np.int64)
+    larger = np.empty(hi - lo)  # per segment in ``near``: its larger distance at the A segment's ends
+    ends = np.empty((hi - lo, 2))  # per segment of the stretch: its distances at the A segment's ends
     qj, qk, roots = np.empty(3), np.empty(3), np.empty(2)
     for i in range(start, stop):
         a0x, a0y, a1x, a1y = a[i, 0], a[i, 1], a[i + 1, 0], a[i + 1, 1]
+        # UB over the two segments nearest to the ends first (a bound of UB): most segments stop here
         upper = np.inf
+        for j in (at[i], at[i + 1]):
+            d0 = _segment_distance(a0x, a0y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+            d1 = _segment_distance(a1x, a1y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+            upper = min(upper, max(d0, d1))
+        if not upper > best * (1.0 + _SLACK):
+            continue
         for j in range(lo, hi):
             d0 = _segment_distance(a0x, a0y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
             d1 = _segment_distance(a1x, a1y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+            ends[j - lo, 0], ends[j - lo, 1] = d0, d1
             upper = min(upper, max(d0, d1))
         if not upper > best * (1.0 + _SLACK):
             continue  # f <= upper on the whole segment: it cannot hold a larger maximum
         count = 0
         for j in range(lo, hi):
             b0x, b0y, b1x, b1y = b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1]
+            d0, d1 = ends[j - lo, 0], ends[j - lo, 1]
             if _intersect(a0x, a0y, a1x, a1y, b0x, b0y, b1x, b1y):
                 gap = 0.0
             else:
-                gap = min(_segment_distance(a0x, a0y, b0x, b0y, b1x, b1y),
-                          _segment_distance(a1x, a1y, b0x, b0y, b1x, b1y),
-                          _segment_distance(b0x, b0y, a0x, a0y, a1x, a1y),
+                gap = min(d0, d1, _segment_distance(b0x, b0y, a0x, a0y, a1x, a1y),
                           _segment_distance(b1x, b1y, a0x, a0y, a1x, a1y))
             if gap <= upper * (1.0 + _SLACK) + 1e-300:
-                near[count] = j
+                near[count], larger[count] = j, max(d0, d1)
                 count += 1
         ux, uy = a1x - a0x, a1y - a0y
         for x in range(count):
             j = near[x]
             for y in range(x + 1, count):
                 k = near[y]
+                if not min(larger[x], larger[y]) > best:
+                    continue  # min(d_j, d_k) is at most either's larger end (convex): never above the best
                 for fj in range(3):
                     _quadratic(a0x, a0y, ux, uy, fj, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1], qj)
                     for fk in range(3):
                         _quadratic(a0x, a0y, ux, uy, fk, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1], qk)
                         for r in range(_roots(qj[0] - qk[0], qj[1] - qk[1], qj[2] - qk[2], roots)):
                             px, py = a0x + roots[r] * ux, a0y + roots[r] * uy
+                            # f there is at most d_j: no larger maximum unless d_j is above the best; and a
+                            # root is a crossing of the two segments' distances only where they are equal
+                            dj = _segment_distance(px, py, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+                            if not dj > best:
+                                continue
+                            dk = _segment_distance(px, py, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1])
+                            if abs(dj - dk) > 1e-9 * (1.0 + dj):
+                                continue
                             f = np.inf
                             for z in range(count):
                                 w = near[z]
@@ -146,16 +174,33 @@ def _directed_piece(a, start, stop, b, lo, hi, best):  # pragma: no cover - comp
 
 
 @njit(cache=True)
-def _stretch(b, low_x, low_y, high_x, high_y):  # pragma: no cover - compiled
+def _boxes(b, size):  # pragma: no cover - compiled
+    """The bounding box (low x, low y, high x, high y) of every ``size`` consecutive segments of ``b``."""
+    count = (b.shape[0] - 2) // size + 1
+    out = np.empty((count, 4))
+    for k in range(count):
+        lo, hi = k * size, min((k + 1) * size, b.shape[0] - 1)  # segments lo .. hi - 1: points lo .. hi
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = np.inf, np.inf, -np.inf, -np.inf
+        for p in range(lo, hi + 1):
+            out[k, 0], out[k, 1] = min(out[k, 0], b[p, 0]), min(out[k, 1], b[p, 1])
+            out[k, 2], out[k, 3] = max(out[k, 2], b[p, 0]), max(out[k, 3], b[p, 1])
+    return out
+
+
+@njit(cache=True)
+def _stretch(b, boxes, size, low_x, low_y, high_x, high_y):  # pragma: no cover - compiled
     """The first and one past the last segment of ``b`` whose bounding box meets the box; the whole of
-    ``b`` when none does."""
+    ``b`` when none does.  Groups of ``size`` segments whose ``boxes`` miss it are passed over whole."""
     first, last = -1, -1
-    for j in range(b.shape[0] - 1):
-        if (min(b[j, 0], b[j + 1, 0]) <= high_x and max(b[j, 0], b[j + 1, 0]) >= low_x
-                and min(b[j, 1], b[j + 1, 1]) <= high_y and max(b[j, 1], b[j + 1, 1]) >= low_y):
-            if first < 0:
-                first = j
-            last = j
+    for k in range(boxes.shape[0]):
+        if boxes[k, 0] > high_x or boxes[k, 2] < low_x or boxes[k, 1] > high_y or boxes[k, 3] < low_y:
+            continue
+        for j in range(k * size, min((k + 1) * size, b.shape[0] - 1)):
+            if (min(b[j, 0], b[j + 1, 0]) <= high_x and max(b[j, 0], b[j + 1, 0]) >= low_x
+                    and min(b[j, 1], b[j + 1, 1]) <= high_y and max(b[j, 1], b[j + 1, 1]) >= low_y):
+                if first < 0:
+                    first = j
+                last = j
     if first < 0:
         return 0, b.shape[0] - 1
     return first, last + 1
@@ -170,6 +215,8 @@ def directed_pieced(a, b, piece):  # pragma: no cover - compiled
     reach = _to_segments(a[0, 0], a[0, 1], b, 0, b.shape[0] - 1)  # the first point's distance, exact
     pieces = (a.shape[0] - 2) // piece + 1
     stretches = np.empty((pieces, 2), np.int64)
+    boxes = _boxes(b, _GROUP)
+    at = np.empty(a.shape[0], np.int64)
     # first every piece's stretch and the distances of its points (exact): the largest of them lets the
     # segments' bounds skip nearly every segment below
     for number in range(pieces):
@@ -181,7 +228,7 @@ def directed_pieced(a, b, piece):  # pragma: no cover - compiled
             high_x, high_y = max(high_x, a[p, 0]), max(high_y, a[p, 1])
         # distances at the piece's points bounded from above by a stretch of B near it, then the piece's
         # reach (a distance along a segment never exceeds (f0 + f1 + L) / 2: 1-Lipschitz)
-        lo, hi = _stretch(b, low_x - reach, low_y - reach, high_x + reach, high_y + reach)
+        lo, hi = _stretch(b, boxes, _GROUP, low_x - reach, low_y - reach, high_x + reach, high_y + reach)
         previous = _to_segments(a[start, 0], a[start, 1], b, lo, hi)
         reach = 0.0
         for p in range(start + 1, stop + 1):
@@ -189,12 +236,13 @@ def directed_pieced(a, b, piece):  # pragma: no cover - compiled
             length = math.hypot(a[p, 0] - a[p - 1, 0], a[p, 1] - a[p - 1, 1])
             reach = max(reach, (previous + here + length) / 2.0)
             previous = here
-        lo, hi = _stretch(b, low_x - reach, low_y - reach, high_x + reach, high_y + reach)
+        lo, hi = _stretch(b, boxes, _GROUP, low_x - reach, low_y - reach, high_x + reach, high_y + reach)
         stretches[number, 0], stretches[number, 1] = lo, hi
         for p in range(start, stop + 1):
-            worst = max(worst, _to_segments(a[p, 0], a[p, 1], b, lo, hi))
+            distance, at[p] = _nearest(a[p, 0], a[p, 1], b, lo, hi)
+            worst = max(worst, distance)
     for number in range(pieces):
         start = number * piece
         stop = min(start + piece, a.shape[0] - 1)
-        worst = _directed_piece(a, start, stop, b, stretches[number, 0], stretches[number, 1], worst)
+        worst = _directed_piece(a, start, stop, b, stretches[number, 0], stretches[number, 1], worst, at)
     return worst
