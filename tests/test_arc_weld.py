@@ -487,9 +487,9 @@ def test_an_arc_the_screen_chose_but_its_own_measure_rejects_is_counted(monkeypa
 
 @pytest.mark.parametrize("seed", range(4))
 def test_the_compiled_screen_gives_the_numpy_screens_bounds_to_the_bit(seed, monkeypatch):
-    """The screen's compiled loops (numba, the fast extra) and its NumPy arrays give every candidate the same
-    bound to the last bit; with a budget, the loops stop a candidate past it, and each candidate fits
-    (bound <= budget) under both or neither."""
+    """The screen's compiled loops (numba, the fast extra; large batches only) and its NumPy arrays give every
+    candidate the same bound to the last bit; with a budget, the loops stop a candidate past it, and each
+    candidate fits (bound <= budget) under both or neither."""
     from toolpath.smooth import arc_search
 
     if arc_search.compiled_kernels() is None:
@@ -506,6 +506,7 @@ def test_the_compiled_screen_gives_the_numpy_screens_bounds_to_the_bit(seed, mon
     rows, k = np.divmod(np.arange(len(starts) * size), size)
     centre = -xy[starts][rows] * rng.uniform(0.999, 1.001, (len(rows), 1))
     args = (chain, starts, index, p, o, rows, centre, k + 1)
+    monkeypatch.setattr(arc_search, "COMPILED_CELLS", 0)  # a batch this small: in compiled loops all the same
     compiled = arc_search._bound(*args)
     monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
     plain = arc_search._bound(*args)
@@ -513,6 +514,7 @@ def test_the_compiled_screen_gives_the_numpy_screens_bounds_to_the_bit(seed, mon
     assert np.array_equal(compiled, plain)
     budget = float(np.median(plain[np.isfinite(plain)]))
     monkeypatch.undo()
+    monkeypatch.setattr(arc_search, "COMPILED_CELLS", 0)
     stopped = arc_search._bound(*args, budget)
     assert np.array_equal(stopped <= budget, plain <= budget)
     assert np.array_equal(stopped[plain <= budget], plain[plain <= budget])
@@ -533,6 +535,7 @@ def test_arcs_without_numba_are_the_arcs_with_it(monkeypatch):
     pts = np.column_stack([40.0 * np.cos(t), 40.0 * np.sin(t)]) + rng.normal(0.0, 0.002, (1500, 2))
     text = "G21 G90 G17\nG0 X40 Y0\nG1 Z-1 F300\n" + "".join(f"G1 X{x:.4f} Y{y:.4f}\n" for x, y in pts) + "M30\n"
     program = read_text(text)
+    monkeypatch.setattr(arc_search, "COMPILED_CELLS", 0)  # every batch of the screen in compiled loops
     compiled = weld_arcs(program, program, 0.01)
     assert any(r.lines_replaced > 400 for r in compiled[1])  # long enough to be measured in pieces
     monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
@@ -540,3 +543,26 @@ def test_arcs_without_numba_are_the_arcs_with_it(monkeypatch):
     plain = weld_arcs(program, program, 0.01)
     assert plain[0] == compiled[0]
     assert [r.deviation_mm for r in plain[1]] == pytest.approx([r.deviation_mm for r in compiled[1]], rel=1e-12)
+
+
+def test_a_parameter_line_with_the_letter_f_beside_a_run_is_left_unread():
+    """Lines an arc may not replace are never tokenized for an F word: ``#<z_safe> = 5`` (an f in its name)
+    once stopped the whole program ('#' parameters are read by the interpreter, not by the word lexer)."""
+    text = polygon_program(60).replace("G21 G90 G17\n", "G21 G90 G17\n#<z_safe> = 5\n(feed and safe height)\n")
+    welded = _weld_text(text)
+    assert "#<z_safe> = 5\n" in welded and "(feed and safe height)\n" in welded
+    assert _deviation(text, welded) <= 0.01 + 1e-9
+
+
+@pytest.mark.skipif(not CORPUS.is_dir(), reason="../shared/gcode-corpus is absent (real CAM programs)")
+def test_every_corpus_program_welds_arcs_alone_without_a_refusal(tmp_path):
+    """Arcs alone (``--method none --arcs``) on every shared corpus program: exit 0 and a report, whatever
+    the program holds (parameters, comments, inch units, G91); the two in the test above are measured too."""
+    from toolpath.smooth.command import main
+
+    measured = {"camotics_tiny_cat_outline.ngc", "tinyg_hacdc.gcode"}
+    for source in sorted(p for p in CORPUS.iterdir() if p.suffix != ".md" and p.name not in measured):
+        report = tmp_path / f"{source.name}.json"
+        assert main([str(source), "-o", str(tmp_path / source.name), "--arcs", "--method", "none",
+                     "--units", "mm", "--report", str(report)]) == 0, source.name
+        assert json.loads(report.read_text())["largest_deviation_mm"] <= 0.01

@@ -30,6 +30,7 @@ GALLOP = 64            # from windows this long on, a window's last ends are mea
                        # there, its other ends are taken to fit (the arcs chosen are measured again one by one)
 SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks
 CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
+COMPILED_CELLS = 1 << 16  # candidates x points from which a batch's bounds run in compiled loops (numba)
 STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
                        # measure fewer ends inside a long arc (each measures only past the last count)
 GRID = 17              # the minimax centre's coarse search along the bisector, then
@@ -286,7 +287,8 @@ def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray, budget: fl
     cw = np.round(c / centre_scale * power) / power * centre_scale  # I/J as written
     target = chain.target[qi]
     written_end = p[rows, j] + (np.round(target * power) / power - target) * chain.end_scale[qi][:, None]
-    kernels = compiled_kernels()
+    # the compiled loops pay numba's import (about 0.5 s and 130 MB) once: worth it on large batches only
+    kernels = compiled_kernels() if len(j) * p.shape[1] >= COMPILED_CELLS else None
     if kernels is not None:
         return kernels.spiral_bounds(p, o, rows, c, cw, written_end, j, budget)
     p, o = p[rows], o[rows]

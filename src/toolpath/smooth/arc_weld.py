@@ -125,7 +125,7 @@ def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np
     # except in inverse time (G93), where F is each move's own time
     inverse_time = bool(_INVERSE_TIME.search(_text(program)))
     feed, absolute = program.states.feed, program.states.absolute
-    has_feed = _feed_lines(program)
+    has_feed = _feed_lines(program, movable)
     new_feed = has_feed.copy()  # index = line
     if not inverse_time:
         new_feed[1:] &= feed[1:] != feed[:-1]
@@ -190,10 +190,11 @@ def _lines_holding(program: Program, pattern: re.Pattern) -> np.ndarray:
     return found
 
 
-def _feed_lines(program: Program) -> np.ndarray:
-    """Per line (index = line number): whether it holds an F word (only lines with the letter are read)."""
+def _feed_lines(program: Program, movable: np.ndarray) -> np.ndarray:
+    """Per line (index = line number): whether it is a ``movable`` line (index = line - 1) holding an F word
+    (the only lines an arc may replace; any other line, a parameter's ``#<safe> = 5`` too, stays unread)."""
     out = np.zeros(len(program.lines) + 1, bool)
-    for line in np.flatnonzero(_lines_holding(program, _LETTER_F)):
+    for line in np.flatnonzero(_lines_holding(program, _LETTER_F)[1:] & movable) + 1:
         out[line] = _has_feed(program, int(line))
     return out
 
