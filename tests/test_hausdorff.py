@@ -189,3 +189,9 @@ def test_compiled_pieced_loops_on_hand_cases():
     for piece in (1, 3, 32):
         assert kernels.directed_pieced(line, shifted, piece) == pytest.approx(0.3)
         assert kernels.directed_pieced(shifted, line, piece) == pytest.approx(0.3)
+    # asked for (a caller with many short pairs), the loops measure short pairs too: the whole measure's figure
+    rng = np.random.default_rng(2)
+    walk = np.cumsum(rng.normal(0.0, 1.0, (60, 2)), axis=0)
+    other = walk[::3] + rng.normal(0.0, 0.4, (20, 2))
+    assert pieced_hausdorff(walk, other, compiled=True) == pytest.approx(float(hausdorff(walk, other)), rel=1e-12)
+    assert pieced_hausdorff(corner, chord, compiled=True) == pytest.approx(5.0 / np.sqrt(2.0))

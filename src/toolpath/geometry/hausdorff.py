@@ -198,10 +198,12 @@ def hausdorff(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.maximum(directed_hausdorff(a, b), directed_hausdorff(b, a))
 
 
-def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32) -> float:
+def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32, compiled: bool = False) -> float:
     """:func:`hausdorff` of two single polylines (n, 2) and (m, 2), exact, for long ones that run near each
     other (an arc read as fine chords and the lines it replaced): each direction in pieces of ``piece``
-    segments, each against the stretch of the other that can hold its nearest points.
+    segments, each against the stretch of the other that can hold its nearest points.  In compiled loops
+    (numba, the ``fast`` extra, where installed) when the pair is long or ``compiled`` asks for them (a caller
+    with many pairs to measure: numba's import is paid once).
 
     Why the stretch is enough.  Along a segment of length ``L`` the distance to the other polyline is
     1-Lipschitz, so it never exceeds ``(f0 + f1 + L) / 2`` (``f`` at the segment's ends); a segment of the
@@ -209,13 +211,14 @@ def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32) -> float:
     hence meets the piece's bounding box grown by it.  The stretch runs from the first to the last segment
     that does, so it holds every segment that can be nearest."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    if len(a) * len(b) <= WHOLE_PAIRS:
-        return float(hausdorff(a, b))
-    kernels = compiled_kernels()
+    whole = len(a) * len(b) <= WHOLE_PAIRS
+    kernels = compiled_kernels() if compiled or not whole else None
     if kernels is not None and len(a) >= 2 and len(b) >= 2:  # the same candidates in compiled loops
         a, b = np.ascontiguousarray(a[:, :2]), np.ascontiguousarray(b[:, :2])
         piece = min(piece, COMPILED_PIECE)
         return max(float(kernels.directed_pieced(a, b, piece)), float(kernels.directed_pieced(b, a, piece)))
+    if whole:
+        return float(hausdorff(a, b))
     return max(_directed_pieced(a, b, piece), _directed_pieced(b, a, piece))
 
 

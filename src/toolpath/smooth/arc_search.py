@@ -48,6 +48,7 @@ class Chain:
     end_scale: np.ndarray   # (n,) mm per unit of those numbers
     decimals: np.ndarray    # (n,) decimals an arc ending at the point is written with
     centre_scale: np.ndarray  # (n,) mm per unit of I/J for an arc starting at the point
+    compiled: bool = False    # every batch's bounds in compiled loops (numba, where installed), however small
 
 
 def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_segments: int,
@@ -288,7 +289,7 @@ def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray, budget: fl
     target = chain.target[qi]
     written_end = p[rows, j] + (np.round(target * power) / power - target) * chain.end_scale[qi][:, None]
     # the compiled loops pay numba's import (about 0.5 s and 130 MB) once: worth it on large batches only
-    kernels = compiled_kernels() if len(j) * p.shape[1] >= COMPILED_CELLS else None
+    kernels = compiled_kernels() if chain.compiled or len(j) * p.shape[1] >= COMPILED_CELLS else None
     if kernels is not None:
         return kernels.spiral_bounds(p, o, rows, c, cw, written_end, j, budget)
     p, o = p[rows], o[rows]

@@ -46,6 +46,7 @@ CHECK_CHORD = 2e-5   # mm: chords of the arcs the fit and the re-read check meas
 MAX_SEGMENTS = 2000  # growth stops here: on a 20,000-line dense program 800 wrote 31 lines (16 s), 2,000 wrote
 #                     16 (38 s), 5,000 wrote 10 (103 s); ArcWelder wrote 29 (12 of them its header)
 MOTION_CODES = {0.0, 1.0, 2.0, 3.0, 5.0, 5.1, 5.2, 33.0, 33.1, 73.0, 76.0}  # with G38.x and G80-G89
+COMPILED_POINTS = 2_000  # chain points from which the screen and the check run in compiled loops (numba)
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
 _INVERSE_TIME = re.compile(r"G\s*0*93(?![\d.])", re.IGNORECASE)
@@ -236,9 +237,13 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     records: list[ArcRecord] = []
     written: dict[int, tuple] = {}  # per arc, what wrote it
     kept_as_lines = 0
-    for xy, lines, first, last, open_end in _chains(current, switch_stable(current, read_options, start)):
+    chains = _chains(current, switch_stable(current, read_options, start))
+    # numba's import (about 0.5 s, where the fast extra is installed) pays for itself from a few thousand points
+    compiled = sum(last - first + 1 for _, _, first, last, _ in chains) >= COMPILED_POINTS
+    for xy, lines, first, last, open_end in chains:
         original_xy = original.points[_last_point_of(original, lines[first:last + 1]), :2]
-        chosen, rejected = _fewest_lines(current, xy, lines, original_xy, first, last, open_end, tolerance)
+        chosen, rejected = _fewest_lines(current, xy, lines, original_xy, first, last, open_end, tolerance,
+                                         compiled)
         kept_as_lines += rejected  # the screen chose them, their own measure as written did not
         for i, q, arc, deviation in chosen:
             record = ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation)
@@ -246,7 +251,8 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
             _write(current, xy, lines, i, q, arc, edits)
             records.append(record)
     text = _edited(current, edits)
-    while records and (failed := _verify(text, current, original, records, tolerance, read_options, start)):
+    while records and (failed := _verify(text, current, original, records, tolerance, read_options, start,
+                                         compiled)):
         # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
         # (the line after an arc may be the next arc's first) and checked again
         records = [r for r in records if r not in failed]
@@ -259,7 +265,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
 
 
 def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: int, open_end: bool,
-                  tolerance: float):
+                  tolerance: float, compiled: bool = False):
     """The arcs over points ``first..last`` of a chain that leave the fewest lines
     (:func:`toolpath.smooth.arc_search.fewest_blocks`), each measured again as it is written.  The
     chain's last line stays a G1 unless ``open_end`` (the line after an arc must set its own motion mode,
@@ -270,7 +276,7 @@ def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: in
     before = np.append(span[1:] - 1, span[-1])  # an arc from point k is written on line L(k+1)
     chain = Chain(xy[first:last + 1], original_xy, program_coordinates(program, span, xy[first:last + 1]),
                   np.where(inch, MM_PER_INCH, 1.0), decimals_of(program, span),
-                  np.where(program.states.inch[before - 1].astype(bool), MM_PER_INCH, 1.0))
+                  np.where(program.states.inch[before - 1].astype(bool), MM_PER_INCH, 1.0), compiled)
     end = (last if open_end else last - 1) - first
     chosen, rejected = [], 0
     for i, q, centre in fewest_blocks(chain, end, tolerance - 2.0 * CHECK_CHORD, MIN_SEGMENTS, MAX_SEGMENTS,
@@ -369,7 +375,7 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
 
 
 def _verify(text: str, current: Program, original: Program, records: list[ArcRecord], tolerance: float,
-            read_options: ReaderOptions | None, start: Reading | None) -> list[ArcRecord]:
+            read_options: ReaderOptions | None, start: Reading | None, compiled: bool = False) -> list[ArcRecord]:
     """Re-read the output: every point outside the arcs is where it was, at the feed it had (else
     GCodeError); the arcs that lie farther than the tolerance from the original (each record gets its exact
     deviation) or run at a feed another line they replace did not have."""
@@ -406,5 +412,5 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         a -= 1  # the arc's start point: the one before its first line's
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
         # the chords lie within CHECK_CHORD of the arc the controller runs: the bound of its distance
-        r.deviation_mm = pieced_hausdorff(original.points[a:b + 1, :2], new) + CHECK_CHORD
+        r.deviation_mm = pieced_hausdorff(original.points[a:b + 1, :2], new, compiled=compiled) + CHECK_CHORD
     return [r for r in records if r.deviation_mm > tolerance + 1e-9]
