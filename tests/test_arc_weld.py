@@ -417,13 +417,13 @@ def test_an_arc_over_a_change_of_feed_is_kept_as_its_lines(monkeypatch):
     """The re-read check compares the feed too: were the search to join lines across a new F (here it is
     made blind to F words), the arc that would run the second feed's lines at the first is kept as its
     lines, and every move of the output runs at the feed it had."""
-    from toolpath.smooth import arc_weld
+    from toolpath.smooth import arc_runs
 
     lines = polygon_program(60).splitlines()
     lines[34] += " F900"
     text = "\n".join(lines) + "\n"
     program = read_text(text)
-    monkeypatch.setattr(arc_weld, "_has_feed", lambda *_: False)
+    monkeypatch.setattr(arc_runs, "has_feed", lambda *_: False)
     out, records, _, _, kept_as_lines = weld_arcs(program, program, 0.01)
     assert kept_as_lines >= 1
     assert all(r.last_line < 35 or r.first_line >= 35 for r in records)

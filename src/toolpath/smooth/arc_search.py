@@ -33,6 +33,7 @@ CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
 COMPILED_CELLS = 1 << 16  # candidates x points from which a batch's bounds run in compiled loops (numba)
 STARTS_PER_STEP = 8    # starts measured between updates of the counts: more share numpy's overhead, fewer
                        # measure fewer ends inside a long arc (each measures only past the last count)
+IDLE_WINDOW = 1024     # starts looked at at once for chunks that would do nothing (inside a long arc)
 GRID = 17              # the minimax centre's coarse search along the bisector, then
 GOLDEN_STEPS = 12      # golden-section steps in the best cell (its interval shrinks 0.618 a step)
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -68,16 +69,26 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
     from_start = np.full(n, -1, np.int64)  # -1: reached by a G1 line from the point before
     centres = np.zeros((n, 2))
     starts = np.arange(0, max(end - min_segments + 1, 0))
-    for lo in range(0, len(starts), STARTS_PER_STEP):
+    lo, idle = 0, False
+    while lo < len(starts):
+        if idle:  # the last chunk did nothing: pass over every chunk that would do nothing either
+            skip = _idle_starts(blocks, lo, min(lo + IDLE_WINDOW, len(starts)), n) // STARTS_PER_STEP
+            if skip:
+                lo += skip * STARTS_PER_STEP
+                continue
         chunk = starts[lo:lo + STARTS_PER_STEP]
+        lo += STARTS_PER_STEP
+        idle = True
         for i in chunk[chunk > 0].tolist():  # each point is reached by a line from the one before at least
             if blocks[i - 1] + 1 < blocks[i]:
                 blocks[i], from_start[i] = blocks[i - 1] + 1, -1
+                idle = False
         # inside a long arc every start has the same count, and a later one reaches about as far (an arc
         # from it is a part of the earlier one's): only the last starts of such a run are measured
         # (one of SKIP_GAP points that far on: a point no arc can end at, a noisy vertex, does not count)
         ahead = np.minimum(chunk[:, None] + SKIP_GAP + np.arange(SKIP_GAP)[None, :], n - 1)
         measured = chunk[(chunk + SKIP_GAP >= n) | (blocks[ahead].min(axis=1) > blocks[chunk])]
+        idle &= not len(measured)
         results = {}
         groups = [measured]
         if 1 < len(measured) < len(chunk) and blocks[measured[-1]] == blocks[measured].min():
@@ -114,6 +125,18 @@ def fewest_blocks(chain: Chain, end: int, budget: float, min_segments: int, max_
             chosen.append((i, k, centres[k].copy()))
             k = i
     return chosen[::-1]
+
+
+def _idle_starts(blocks: np.ndarray, lo: int, hi: int, n: int) -> int:
+    """How many starts from ``lo`` on (up to ``hi``) a chunk of :func:`fewest_blocks` would pass over doing
+    nothing: no line from the point before lowers their count, and each is skipped by the ``SKIP_GAP`` rule
+    (blocks change only where one of those happens, so the answer holds for the chunks in turn)."""
+    i = np.arange(lo, hi)
+    relax = (i > 0) & (blocks[np.maximum(i - 1, 0)] + 1 < blocks[i])
+    ahead = np.minimum(i[:, None] + SKIP_GAP + np.arange(SKIP_GAP)[None, :], n - 1)
+    measured = (i + SKIP_GAP >= n) | (blocks[ahead].min(axis=1) > blocks[i])
+    busy = np.flatnonzero(relax | measured)
+    return int(busy[0]) if len(busy) else hi - lo
 
 
 def _relax(blocks: np.ndarray, from_start: np.ndarray, centres: np.ndarray, i: int, fits: np.ndarray,

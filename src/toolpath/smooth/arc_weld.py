@@ -28,15 +28,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from toolpath.gcode.edit import movable_lines, program_coordinates
+from toolpath.gcode.edit import program_coordinates
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.lexer import tokenize
-from toolpath.gcode.program import Lines
 from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import pieced_hausdorff
-from toolpath.geometry.labels.windows import feed_runs
+from toolpath.smooth.arc_runs import edited, last_point_of, sets_motion, text_of, weldable_runs
 from toolpath.smooth.arc_search import Chain, fewest_blocks
 from toolpath.smooth.rewrite import decimals_of, line_decimals, switch_stable
 
@@ -45,16 +44,10 @@ LOOKAHEAD = 8        # a start is measured further while an arc fits within this
 CHECK_CHORD = 2e-5   # mm: chords of the arcs the fit and the re-read check measure (within this of the arc)
 MAX_SEGMENTS = 2000  # growth stops here: on a 20,000-line dense program 800 wrote 31 lines (16 s), 2,000 wrote
 #                     16 (38 s), 5,000 wrote 10 (103 s); ArcWelder wrote 29 (12 of them its header)
-MOTION_CODES = {0.0, 1.0, 2.0, 3.0, 5.0, 5.1, 5.2, 33.0, 33.1, 73.0, 76.0}  # with G38.x and G80-G89
 COMPILED_POINTS = 2_000  # chain points from which the screen and the check run in compiled loops (numba)
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
 _ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
-_INVERSE_TIME = re.compile(r"G\s*0*93(?![\d.])", re.IGNORECASE)
 _LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
-# a line an arc may replace holds no block delete and no comment: a ``/`` line runs or not by the switch; a
-# comment may be a MSG or DEBUG the operator sees
-_NOT_BARE = re.compile(r"[/(;]")
-_LETTER_F = re.compile(r"[Ff]")
 
 
 @dataclass
@@ -110,111 +103,6 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
     return _Arc(centre + origin, radius, sweep)
 
 
-def _chains(program: Program, stable: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray, int, int, bool]]:
-    """Per feed run, maximal point ranges ``i..e`` whose lines ``L(i+1)..L(e)`` are plain G1 lines in absolute
-    mode, consecutive from ``L(i+1)`` on (lines before it that leave X and Y where they are, a plunge, stay),
-    with no block delete or comment, an F word only on the first (or one repeating the feed in effect), none
-    read past blind (:mod:`toolpath.gcode.passing`), and (``stable``) where the tool stands before and after
-    each the same with the block-delete switch on or off: (xy, lines, i, e, whether an arc may end at ``e``:
-    the line after ``L(e)`` sets its own motion mode, so it cannot inherit the arc's, or is a bare G1 line
-    that moves nowhere, which may be given a ``G1``)."""
-    count = len(program.lines)
-    movable = movable_lines(program) & ~_lines_holding(program, _NOT_BARE)[1:]
-    stable = np.ones(count + 1, bool) if stable is None else stable
-    stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
-    # an F word that repeats the feed in effect changes nothing a controller does (ArcWelder drops it too),
-    # except in inverse time (G93), where F is each move's own time
-    inverse_time = bool(_INVERSE_TIME.search(_text(program)))
-    feed, absolute = program.states.feed, program.states.absolute
-    has_feed = _feed_lines(program, movable)
-    new_feed = has_feed.copy()  # index = line
-    if not inverse_time:
-        new_feed[1:] &= feed[1:] != feed[:-1]
-    # per line (index = line): a plain G1 move in absolute mode, where the tool stands the same either way
-    plain = np.zeros(count + 1, bool)
-    plain[1:] = movable & absolute[1:] & stable[1:]
-    # lines between two points are plain G1 moves to where the tool stands (a CAM's repeated corner): an arc
-    # passes over them as over the lines it replaces; ``blocking[:k]`` counts the lines up to k that may not
-    blocking = np.concatenate([[0], np.cumsum(~(plain & ~has_feed))])
-    out = []
-    for xy, lines in feed_runs(program):
-        lines = lines.astype(np.int64)
-        replaceable, joined = np.zeros(len(lines), bool), np.zeros(len(lines), bool)
-        replaceable[1:] = plain[lines[1:]] & stable[lines[1:] - 1]
-        # no blocking line strictly between (two points of one line: none between)
-        joined[1:] = (lines[1:] <= lines[:-1] + 1) | (blocking[lines[1:]] == blocking[lines[:-1] + 1])
-        extends = replaceable & joined & ~new_feed[lines]
-        k = 1
-        while k < len(lines):
-            if not replaceable[k]:
-                k += 1
-                continue
-            i, k = k - 1, k + 1
-            while k < len(lines) and extends[k]:
-                k += 1
-            after = int(lines[k - 1]) + 1
-            # a bare plain G1 line after it (one that moves nowhere, so in no run) takes a written G1 as well
-            out.append((xy, lines, i, k - 1, after > count or _sets_motion(program, after)
-                        or (bool(movable[after - 1]) and bool(absolute[after]))))
-    return out
-
-
-def _text(program: Program) -> str:
-    lines = program.lines
-    return lines.text if isinstance(lines, Lines) else "".join(lines)
-
-
-def _edited(program: Program, edits: dict[int, str]) -> str:
-    """The program's text with line ``k`` replaced by ``edits[k]``."""
-    lines = program.lines
-    if isinstance(lines, Lines):
-        return lines.joined(edits)
-    return "".join(edits.get(n, raw) for n, raw in enumerate(lines, start=1))
-
-
-def _last_point_of(program: Program, lines: np.ndarray) -> np.ndarray:
-    """The index of the last point each of ``lines`` reaches (every one reaches one)."""
-    found = np.searchsorted(program.lines_of_points, lines, side="right") - 1
-    if np.any(found < 0) or not np.array_equal(program.lines_of_points[found], lines):
-        raise ValueError("a line that reaches no point")
-    return found
-
-
-def _lines_holding(program: Program, pattern: re.Pattern) -> np.ndarray:
-    """Per line (index = line number, 0 unused): whether the pattern occurs in it (its ending included)."""
-    lines = program.lines
-    text = _text(program)
-    starts = lines.starts if isinstance(lines, Lines) else np.cumsum([0] + [len(raw) for raw in lines])
-    found = np.zeros(len(lines) + 1, bool)
-    at = np.fromiter((m.start() for m in pattern.finditer(text)), np.int64)
-    found[np.searchsorted(starts, at, side="right")] = True
-    return found
-
-
-def _feed_lines(program: Program, movable: np.ndarray) -> np.ndarray:
-    """Per line (index = line number): whether it is a ``movable`` line (index = line - 1) holding an F word
-    (the only lines an arc may replace; any other line, a parameter's ``#<safe> = 5`` too, stays unread)."""
-    out = np.zeros(len(program.lines) + 1, bool)
-    for line in np.flatnonzero(_lines_holding(program, _LETTER_F)[1:] & movable) + 1:
-        out[line] = _has_feed(program, int(line))
-    return out
-
-
-def _sets_motion(program: Program, line: int) -> bool:
-    """Whether ``line`` holds a motion-mode word (G0-G3, G5.x, G33.x, G38.x, G73, G76, G80-G89)."""
-    words = tokenize(program.lines[line - 1].rstrip("\r\n"), program.source, line).words
-    return any(w.letter == "G" and (w.value in MOTION_CODES or 80 <= w.value <= 89 or int(w.value) == 38)
-               for w in words)
-
-
-def _has_feed(program: Program, line: int) -> bool:
-    raw = program.lines[line - 1]
-    if "F" not in raw and "f" not in raw:  # most lines: no letter to tokenize for
-        return False
-    return any(w.letter == "F" for w in tokenize(program.lines[line - 1].rstrip("\r\n"), program.source,
-                                                 line).words)
-
-
 def weld_arcs(current: Program, original: Program, tolerance: float, read_options: ReaderOptions | None = None,
               start: Reading | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
     """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
@@ -227,8 +115,8 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     GCodeError
         When the re-read output moved a point outside the arcs (an internal error: nothing should be written).
     """
-    if _ABSOLUTE_CENTRES.search(_text(current)):
-        return _text(current), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
+    if _ABSOLUTE_CENTRES.search(text_of(current)):
+        return text_of(current), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
     # the re-read check reads the arcs as chords within CHECK_CHORD of them (whatever the caller's tolerance)
     read_options = replace(read_options or (start.options if start is not None else ReaderOptions()),
                            chord_tolerance=CHECK_CHORD)
@@ -237,11 +125,11 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     records: list[ArcRecord] = []
     written: dict[int, tuple] = {}  # per arc, what wrote it
     kept_as_lines = 0
-    chains = _chains(current, switch_stable(current, read_options, start))
+    chains = weldable_runs(current, switch_stable(current, read_options, start))
     # numba's import (about 0.5 s, where the fast extra is installed) pays for itself from a few thousand points
     compiled = sum(last - first + 1 for _, _, first, last, _ in chains) >= COMPILED_POINTS
     for xy, lines, first, last, open_end in chains:
-        original_xy = original.points[_last_point_of(original, lines[first:last + 1]), :2]
+        original_xy = original.points[last_point_of(original, lines[first:last + 1]), :2]
         chosen, rejected = _fewest_lines(current, xy, lines, original_xy, first, last, open_end, tolerance,
                                          compiled)
         kept_as_lines += rejected  # the screen chose them, their own measure as written did not
@@ -250,7 +138,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
             written[id(record)] = (xy, lines, i, q, arc)
             _write(current, xy, lines, i, q, arc, edits)
             records.append(record)
-    text = _edited(current, edits)
+    text = edited(current, edits)
     while records and (failed := _verify(text, current, original, records, tolerance, read_options, start,
                                          compiled)):
         # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
@@ -260,7 +148,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
         edits = {}
         for record in records:
             _write(current, *written[id(record)], edits)
-        text = _edited(current, edits)
+        text = edited(current, edits)
     return text, records, sorted(edits), None, kept_as_lines
 
 
@@ -368,7 +256,7 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
     if after > len(program.lines):
         return
     following = program.lines[after - 1]
-    if not _sets_motion(program, after):
+    if not sets_motion(program, after):
         # after a leading N word, where a controller expects it (LinuxCNC refuses an N in mid-line)
         number = _LEADING_N.match(following)
         edits.setdefault(after, following[:number.end()] + "G1 " + following[number.end():])
@@ -384,7 +272,7 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
 
     final = read(text)
     # the input's own arcs compared as chords of one fineness: read both at the check's (the caller's may differ)
-    before = read(_text(current))
+    before = read(text_of(current))
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
     for r in records:
@@ -408,7 +296,7 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
     if not np.array_equal(feed_before[kept_before], feed_final[kept_final], equal_nan=True):
         raise GCodeError(current.source, 0, "internal check failed: welding arcs changed the feed of a move")
     for r, line in zip(records, arc_lines, strict=True):
-        a, b = _last_point_of(original, np.array([r.first_line, r.last_line]))  # the point each line reaches
+        a, b = last_point_of(original, np.array([r.first_line, r.last_line]))  # the point each line reaches
         a -= 1  # the arc's start point: the one before its first line's
         new = np.vstack([current.points[a, :2], final.points[final.lines_of_points == line, :2]])
         # the chords lie within CHECK_CHORD of the arc the controller runs: the bound of its distance
