@@ -77,12 +77,22 @@ def text_of(program: Program) -> str:
     return lines.text if isinstance(lines, Lines) else "".join(lines)
 
 
-def edited(program: Program, edits: dict[int, str]) -> str:
-    """The program's text with line ``k`` replaced by ``edits[k]``."""
+def edited(program: Program, edits: dict[int, str], removed: list[tuple[int, int]] = ()) -> str:
+    """The program's text with line ``k`` replaced by ``edits[k]`` and the lines ``first..last`` of each
+    ``removed`` range left out (a piece of text per edit or range, not per line)."""
     lines = program.lines
-    if isinstance(lines, Lines):
-        return lines.joined(edits)
-    return "".join(edits.get(n, raw) for n, raw in enumerate(lines, start=1))
+    if not isinstance(lines, Lines):
+        gone = {k for a, b in removed for k in range(a, b + 1)}
+        return "".join(edits.get(n, "" if n in gone else raw) for n, raw in enumerate(lines, start=1))
+    text, starts = lines.text, lines.starts
+    pieces = sorted([(k, k, edits[k]) for k in edits] + [(a, b, "") for a, b in removed])
+    out, at = [], 0
+    for first, last, replacement in pieces:
+        out.append(text[at:starts[first - 1]])
+        out.append(replacement)
+        at = int(starts[last])
+    out.append(text[at:])
+    return "".join(out)
 
 
 def last_point_of(program: Program, lines: np.ndarray) -> np.ndarray:

@@ -104,10 +104,10 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
 
 
 def weld_arcs(current: Program, original: Program, tolerance: float, read_options: ReaderOptions | None = None,
-              start: Reading | None = None) -> tuple[str, list[ArcRecord], list[int], str | None]:
+              start: Reading | None = None) -> tuple[str, list[ArcRecord], np.ndarray, str | None, int]:
     """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
     replaced by arcs within ``tolerance`` of ``original``'s path; the arcs; the input lines changed or
-    removed; why no arc was tried (or None); how many arcs the exact check rejected and were kept as
+    removed (ascending); why no arc was tried (or None); how many arcs the exact check rejected and were kept as
     their G1 lines.  ``start``: for a part of a program, the reading its output is re-read from.
 
     Raises
@@ -116,12 +116,14 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
         When the re-read output moved a point outside the arcs (an internal error: nothing should be written).
     """
     if _ABSOLUTE_CENTRES.search(text_of(current)):
-        return text_of(current), [], [], "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0
+        return (text_of(current), [], np.zeros(0, np.int64),
+                "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0)
     # the re-read check reads the arcs as chords within CHECK_CHORD of them (whatever the caller's tolerance)
     read_options = replace(read_options or (start.options if start is not None else ReaderOptions()),
                            chord_tolerance=CHECK_CHORD)
     start = start.with_options(read_options) if start is not None else None
-    edits: dict[int, str] = {}
+    edits: dict[int, str] = {}  # lines rewritten (an arc's first, the line after it)
+    removed: list[tuple[int, int]] = []  # lines an arc replaces after its first, as (first, last)
     records: list[ArcRecord] = []
     written: dict[int, tuple] = {}  # per arc, what wrote it
     kept_as_lines = 0
@@ -136,20 +138,22 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
         for i, q, arc, deviation in chosen:
             record = ArcRecord(int(lines[i + 1]), int(lines[q]), q - i, arc.radius, arc.sweep < 0, deviation)
             written[id(record)] = (xy, lines, i, q, arc)
-            _write(current, xy, lines, i, q, arc, edits)
+            _write(current, xy, lines, i, q, arc, edits, removed)
             records.append(record)
-    text = edited(current, edits)
+    text = edited(current, edits, removed)
     while records and (failed := _verify(text, current, original, records, tolerance, read_options, start,
                                          compiled)):
         # an arc the exact check rejects is kept as its G1 lines: the others are written again without it
         # (the line after an arc may be the next arc's first) and checked again
         records = [r for r in records if r not in failed]
         kept_as_lines += len(failed)
-        edits = {}
+        edits, removed = {}, []
         for record in records:
-            _write(current, *written[id(record)], edits)
-        text = edited(current, edits)
-    return text, records, sorted(edits), None, kept_as_lines
+            _write(current, *written[id(record)], edits, removed)
+        text = edited(current, edits, removed)
+    changed = np.concatenate([np.fromiter(edits, np.int64, len(edits))]
+                             + [np.arange(a, b + 1, dtype=np.int64) for a, b in removed])
+    return text, records, np.unique(changed), None, kept_as_lines
 
 
 def _fewest_lines(program: Program, xy, lines, original_xy, first: int, last: int, open_end: bool,
@@ -239,8 +243,10 @@ def spiral_bound(original: np.ndarray, start: np.ndarray, end: np.ndarray, centr
     return float(max(np.abs(d - r).max(), inside.max(), outside.max(), ends))
 
 
-def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str]) -> None:
-    """Write the arc over lines ``L(i+1)..L(q)`` into ``edits``."""
+def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[int, str],
+           removed: list[tuple[int, int]]) -> None:
+    """Write the arc over lines ``L(i+1)..L(q)`` into ``edits`` (its first line, the line after it) and
+    ``removed`` (the others)."""
     first, end = int(lines[i + 1]), int(lines[q])
     raw = program.lines[first - 1]
     body = raw.rstrip("\r\n")
@@ -250,8 +256,8 @@ def _write(program: Program, xy, lines, i: int, q: int, arc: _Arc, edits: dict[i
     parts += [f"G{2 if arc.sweep < 0 else 3}", f"X{x}", f"Y{y}", f"I{i_text}", f"J{j_text}"]
     parts += [f"F{w.text}" for w in words if w.letter == "F"]
     edits[first] = " ".join(parts) + raw[len(body):]
-    for line in range(first + 1, end + 1):
-        edits[line] = ""
+    if end > first:
+        removed.append((first + 1, end))
     after = end + 1  # it must not inherit the arc's motion mode
     if after > len(program.lines):
         return

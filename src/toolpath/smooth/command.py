@@ -335,7 +335,7 @@ def _weld(result, program, tolerance: float, start) -> None:
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
     coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
     result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
-    result.changed_lines = sorted(set(result.changed_lines) | set(lines))
+    result.changed_lines = np.union1d(np.asarray(result.changed_lines, np.int64), lines)
 
 
 SIGNAL_EXITS = {"SIGINT": (130, "interrupted"), "SIGTERM": (143, "terminated")}

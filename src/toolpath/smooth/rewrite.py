@@ -75,7 +75,7 @@ class Rewrite:
     windows: list[WindowRecord]
     runs_before: list[np.ndarray]
     runs_after: list[np.ndarray]
-    changed_lines: list[int]
+    changed_lines: list[int] | np.ndarray  # input lines changed or removed, ascending
     arcs: list | None = None  # ``--arcs``: :class:`toolpath.smooth.arc_weld.ArcRecord` per arc written
     arcs_note: str | None = None  # why no arc was fitted at all, when so
     arcs_kept_as_lines: int = 0  # arcs the exact re-read check rejected: their G1 lines were kept
