@@ -296,7 +296,7 @@ def run(args: argparse.Namespace) -> dict:
                                      units=args.units):
                 units = part.program.units
                 if args.arcs:
-                    _weld(part.result, part.program, args.tolerance, part.start)
+                    _weld(part.result, part.program, args.tolerance, part.start, args.report is not None or drawn)
                 out.write(part.result.text.encode("utf-8", errors="surrogateescape"))  # undecodable bytes kept
                 # the machining time is in the report only: without one, the planner is not run
                 total.add(part, machining_time(part.result.runs_before, part.result.runs_after)
@@ -321,8 +321,9 @@ def run(args: argparse.Namespace) -> dict:
     return report
 
 
-def _weld(result, program, tolerance: float, start) -> None:
-    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`)."""
+def _weld(result, program, tolerance: float, start, paths: bool = True) -> None:
+    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`); with
+    ``paths`` (a report plans the machining time, a plot draws them) the runs as a controller runs them."""
     from dataclasses import replace
 
     from toolpath.geometry.labels.windows import feed_runs
@@ -333,8 +334,9 @@ def _weld(result, program, tolerance: float, start) -> None:
     result.text, result.arcs, result.arcs_note = text, arcs, note
     result.arcs_kept_as_lines = kept_as_lines
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
-    coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
-    result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
+    if paths:
+        coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
+        result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
     result.changed_lines = np.union1d(np.asarray(result.changed_lines, np.int64), lines)
 
 
