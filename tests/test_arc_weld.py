@@ -566,3 +566,32 @@ def test_every_corpus_program_welds_arcs_alone_without_a_refusal(tmp_path):
         assert main([str(source), "-o", str(tmp_path / source.name), "--arcs", "--method", "none",
                      "--units", "mm", "--report", str(report)]) == 0, source.name
         assert json.loads(report.read_text())["largest_deviation_mm"] <= 0.01
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_compiled_screen_fits_the_ends_the_numpy_screen_fits(seed, monkeypatch):
+    """The whole screen of a batch of starts in compiled loops (least squares, minimax and flattest centres, one
+    candidate at a time) fits the very ends the NumPy arrays fit, about the same centres (their sums run in
+    another order); noisy steps make all three centre kinds answer."""
+    from toolpath.smooth import arc_search
+
+    if arc_search.compiled_kernels() is None:
+        pytest.skip("numba is not installed (the fast extra): the compiled loops are not there to test")
+    rng = np.random.default_rng(seed)
+    n = 160
+    t = np.cumsum(rng.uniform(0.01, 0.03, n))
+    xy = np.column_stack([20.0 * np.cos(t), 20.0 * np.sin(t)]) + [100.0, -40.0]
+    xy[60:110] = np.linspace(xy[60], xy[110], 50) + rng.normal(0.0, 0.003, (50, 2))  # a straight edge in steps
+    xy = np.round(xy + rng.normal(0.0, 0.002, (n, 2)), 3)
+    chain = arc_search.Chain(xy, xy, xy, np.ones(n), np.full(n, 3), np.ones(n))
+    starts = np.array([0, 7, 40, 61, 90])
+    j = np.tile(np.arange(2, 66), (len(starts), 1))
+    valid = rng.random(j.shape) < 0.9
+    args = (chain, starts, j, valid, n - 1, 0.006, 2, 1e4)
+    monkeypatch.setattr(arc_search, "COMPILED_CELLS", 0)
+    fits, centres = arc_search._measure_ends(*args)
+    monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
+    plain_fits, plain_centres = arc_search._measure_ends(*args)
+    assert 0 < plain_fits.sum() < valid.sum()  # some ends fit, some do not
+    assert np.array_equal(fits, plain_fits)
+    assert np.allclose(centres[fits], plain_centres[fits], rtol=0.0, atol=1e-9)

@@ -223,8 +223,16 @@ def _measure_rows(chain: Chain, chunk: np.ndarray, rows: list, ends: dict, last:
 def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, valid: np.ndarray, end: int, budget: float,
                   min_segments: int, max_radius: float) -> tuple[np.ndarray, np.ndarray]:
     """For each start ``b`` and each of its ends ``starts[b] + j[b, m]`` (``j``: (B, J), measured where
-    ``valid``): whether an arc fits, and its centre (mm)."""
+    ``valid``): whether an arc fits, and its centre (mm).  In compiled loops one candidate at a time
+    (:func:`toolpath.smooth.arc_kernels.screen`) where numba is installed and the batch is large or the
+    chain asks for them; else in (starts x ends x points) arrays."""
     size = int(j.max())
+    kernels = compiled_kernels() if chain.compiled or j.size * (size + 1) >= COMPILED_CELLS else None
+    if kernels is not None:
+        fits, centre = kernels.screen(chain.xy, chain.original, chain.target, chain.decimals, chain.end_scale,
+                                      chain.centre_scale, starts, j, valid, end, budget, min_segments, max_radius,
+                                      np.linspace(-1.0, 1.0, GRID), _GOLDEN, GOLDEN_STEPS)
+        return fits, centre + chain.xy[starts][:, None, :]
     k = np.arange(size + 1)
     index = np.minimum(starts[:, None] + k[None, :], len(chain.xy) - 1)  # (B, K+1)
     origin = chain.xy[starts][:, None, :]
