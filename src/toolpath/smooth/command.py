@@ -337,7 +337,8 @@ def _weld(result, program, tolerance: float, start, paths: bool = True) -> None:
     if paths:
         coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
         result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
-    result.changed_lines = np.union1d(np.asarray(result.changed_lines, np.int64), lines)
+    result.changed_lines = lines if not len(result.changed_lines) else \
+        np.union1d(np.asarray(result.changed_lines, np.int64), lines)
 
 
 SIGNAL_EXITS = {"SIGINT": (130, "interrupted"), "SIGTERM": (143, "terminated")}
