@@ -83,7 +83,7 @@ def spiral_bounds(p, o, rows, c, cw, written_end, j, budget):  # pragma: no cove
 
 
 @njit(cache=True)
-def _worst_miss(p, s, jj, t, half, nx, ny, cx, cy):  # pragma: no cover - compiled
+def _worst_miss(p, jj, t, half, nx, ny, cx, cy):  # pragma: no cover - compiled
     """The largest radial miss of the points between the ends for the centre at ``t`` on the bisector (the
     ``worst`` of :func:`toolpath.smooth.arc_search._golden`)."""
     radius2 = half * half + t * t
@@ -176,23 +176,23 @@ def _golden(p, jj, least, half, nx, ny, cx, cy, grid, golden, steps):  # pragma:
     width = 0.05 * (abs(least) + 2.0 * half)
     best, at = np.inf, 0
     for g in range(grid.shape[0]):
-        value = _worst_miss(p, 0, jj, least + grid[g] * width, half, nx, ny, cx, cy)
+        value = _worst_miss(p, jj, least + grid[g] * width, half, nx, ny, cx, cy)
         if value < best:
             best, at = value, g
     middle = least + grid[at] * width
     cell = width * 2.0 / (grid.shape[0] - 1)
     lo, hi = middle - cell, middle + cell
     x1, x2 = hi - golden * (hi - lo), lo + golden * (hi - lo)
-    f1 = _worst_miss(p, 0, jj, x1, half, nx, ny, cx, cy)
-    f2 = _worst_miss(p, 0, jj, x2, half, nx, ny, cx, cy)
+    f1 = _worst_miss(p, jj, x1, half, nx, ny, cx, cy)
+    f2 = _worst_miss(p, jj, x2, half, nx, ny, cx, cy)
     for _ in range(steps):
         left = f1 < f2
         if left:
             hi = x2
             x2, x1 = x1, hi - golden * (hi - lo)
-            f2, f1 = f1, _worst_miss(p, 0, jj, x1, half, nx, ny, cx, cy)
+            f2, f1 = f1, _worst_miss(p, jj, x1, half, nx, ny, cx, cy)
         else:
             lo = x1
             x1, x2 = x2, lo + golden * (hi - lo)
-            f1, f2 = f2, _worst_miss(p, 0, jj, x2, half, nx, ny, cx, cy)
+            f1, f2 = f2, _worst_miss(p, jj, x2, half, nx, ny, cx, cy)
     return x1 if f1 < f2 else x2
