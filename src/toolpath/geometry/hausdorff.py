@@ -20,6 +20,8 @@ crossing that can make a maximum and are skipped.
 
 from __future__ import annotations
 
+import importlib.util
+
 import numpy as np
 
 from toolpath.geometry.deviation import point_to_polyline
@@ -225,10 +227,10 @@ def pieced_hausdorff(a: np.ndarray, b: np.ndarray, piece: int = 32, compiled: bo
 def compiled_kernels():
     """:mod:`toolpath.geometry.hausdorff_kernels` when numba is installed (the ``fast`` extra), else None:
     the NumPy functions here measure the same, more slowly."""
-    try:
-        from toolpath.geometry import hausdorff_kernels
-    except ImportError:
+    if importlib.util.find_spec("numba") is None:  # only numba's absence falls back: a broken kernel module fails
         return None
+    from toolpath.geometry import hausdorff_kernels
+
     return hausdorff_kernels
 
 

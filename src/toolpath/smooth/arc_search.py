@@ -19,6 +19,7 @@ output is re-read and measured exactly by the caller.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 from dataclasses import dataclass
 
@@ -366,8 +367,8 @@ def _bound(chain: Chain, starts, index, p, o, rows, c, j: np.ndarray, budget: fl
 
 def compiled_kernels():
     """:mod:`toolpath.smooth.arc_kernels` when numba is installed (the ``fast`` extra), else None."""
-    try:
-        from toolpath.smooth import arc_kernels
-    except ImportError:
+    if importlib.util.find_spec("numba") is None:  # only numba's absence falls back: a broken kernel module fails
         return None
+    from toolpath.smooth import arc_kernels
+
     return arc_kernels
