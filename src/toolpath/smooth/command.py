@@ -337,6 +337,8 @@ def _weld(result, program, tolerance: float, start, paths: bool = True) -> None:
     if paths:
         coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
         result.runs_after = [xy for xy, _ in feed_runs(coarse.read(text))]
+    else:  # nothing reads them: not the runs of the text before the arcs either
+        result.runs_after = []
     result.changed_lines = lines if not len(result.changed_lines) else \
         np.union1d(np.asarray(result.changed_lines, np.int64), lines)
 
