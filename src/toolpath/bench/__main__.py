@@ -1,6 +1,6 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences|planner]
 [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
@@ -19,7 +19,10 @@ checked by a reader written apart (:mod:`toolpath.bench.programs`).  With ``--on
 shape), writes ``reports/bench/tube_limit.json``: how far the tube lets any of our methods go on the optimize
 stage's windows (:mod:`toolpath.bench.tube_limit`).  Writes ``reports/bench/recurrences.json``: one tanh RNN
 layer as the ONNX ``RNN`` node, as the exporter's unrolled steps and as the fewest-node unrolled form, in
-both runtimes side by side (:mod:`toolpath.bench.recurrences`).  Prints the tables.
+both runtimes side by side (:mod:`toolpath.bench.recurrences`).  With ``--only planner``, writes
+``reports/bench/planner_limit.json``: the corner cases under the planner, the planner without its tangential
+jerk limit and toppra's bound, at three tangential accelerations (:mod:`toolpath.bench.planner_limit`).
+Prints the tables.
 """
 
 from __future__ import annotations
@@ -113,7 +116,7 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube",
-                                             "recurrences"),
+                                             "recurrences", "planner"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
@@ -129,6 +132,8 @@ def main(argv: list[str] | None = None) -> int:
         return _programs(args.programs, args.units)
     if args.only == "tube":
         return _tube(args.shapes or list(config.load().shapes))
+    if args.only == "planner":
+        return _planner()
     if args.only in (None, "recurrences"):
         _recurrences(args.threads, max(5, args.repeats // 3))
         if args.only == "recurrences":
@@ -169,6 +174,27 @@ def main(argv: list[str] | None = None) -> int:
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
     return _runtimes(args.threads, args.repeats) if args.only is None else 0
+
+
+def _planner() -> int:
+    from toolpath.bench.planner_limit import bench_planner_limit
+
+    result = bench_planner_limit()
+    write_json(result, OUT / "planner_limit.json")
+    table = Table(title="Corner cases (s): the planner as configured / read point by point / point by point without "
+                        "the tangential jerk limit / toppra's bound; NURBS + PSO's time saved vs G01 under each (%)")
+    for column in ("a_t mm/s^2", "case", "G01", "NURBS + PSO", "PSO saved vs G01 %"):
+        table.add_column(column)
+    for acceleration, cases in result["by_tangential_acceleration"].items():
+        for case, rows in cases.items():
+            g01, pso = rows["g01"], rows["nurbs_pso"]
+            keys = ("planner", "pointwise", "pointwise_without_jerk_limit", "toppra_bound")
+            table.add_row(acceleration, case, " / ".join(f"{g01[k]:.3f}" for k in keys),
+                          " / ".join(f"{pso[k]:.3f}" for k in keys),
+                          " / ".join(f"{pso['saved_vs_g01_pct'][k]:+.2f}" for k in keys))
+    Console().print(table)
+    print(f"wrote {OUT / 'planner_limit.json'}")
+    return 0
 
 
 def _tube(shapes: list[str]) -> int:
