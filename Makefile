@@ -49,8 +49,8 @@ readme: install
 
 ## The whole test suite (unit, config, stage and one end-to-end pipeline test).  Three xdist workers on two
 ## cores: the end-to-end pipeline (mostly one core, waiting on process start-up between its stages) and the
-## DVC-queue test start first, and the unit tests fill the cores around them (on this machine kind 546 s
-## against 615-636 s with two workers, three runs of the working copy in one evening).
+## DVC-queue test start first, and the unit tests fill the cores around them (faster here than two workers,
+## measured side by side in one evening: the closing note of issue 45).
 test: install
 	$(VENV)/bin/pytest -n 3 --dist loadgroup
 

@@ -114,3 +114,20 @@ def test_the_methods_page_gives_the_surrogates_draw_and_margin_of_the_default_pr
     assert f"turns {turns[0]:g}-{turns[1]:g} deg, legs {legs[0]:g}-{legs[1]:g} mm" in text
     assert f"C(1/2) at {100 * (1 - margin['delta']):g} % of delta_max" in text
     assert f"the extra point {100 * margin['wedge']:g} % of L into the corner" in text
+
+
+def test_the_methods_page_orders_the_corner_paths_as_the_planner_bench_measured():
+    """What docs/methods.md says of the corner cases' machining times follows reports/bench/planner_limit.json."""
+    import json
+
+    text = " ".join((REPO / "docs" / "methods.md").read_text(encoding="utf-8").split())
+    by_rate = json.loads((REPO / "reports/bench/planner_limit.json").read_text())["by_tangential_acceleration"]
+    configured, *higher = (by_rate[rate] for rate in sorted(by_rate, key=float))  # the configured rate is the lowest
+    gaps = [row["pointwise_without_jerk_limit_over_bound_pct"]
+            for rows in by_rate.values() for paths in rows.values() for row in paths.values()]
+    assert "meets toppra's bound on every case path" in text and max(abs(g) for g in gaps) < 0.5
+    names = {"w": "W", "dress": "dress", "torch": "torch"}
+    slower = [names[c] for c in names if configured[c]["nurbs_pso"]["saved_vs_g01_pct"]["toppra_bound"] < 0]
+    assert f"is the faster on {' and '.join(slower)}," in text
+    assert all(paths["nurbs_pso"]["saved_vs_g01_pct"]["toppra_bound"] < 0 for rows in higher for paths in rows.values())
+    assert "and at 2.5x and 5x the tangential acceleration on all three cases" in text
