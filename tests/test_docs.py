@@ -126,6 +126,10 @@ def test_the_methods_page_orders_the_corner_paths_as_the_planner_bench_measured(
     gaps = [row["pointwise_without_jerk_limit_over_bound_pct"]
             for rows in by_rate.values() for paths in rows.values() for row in paths.values()]
     assert "meets toppra's bound on every case path" in text and max(abs(g) for g in gaps) < 0.5
+    rule_cost = {method: [paths[method]["planner"] / paths[method]["pointwise"] - 1 for paths in configured.values()]
+                 for method in ("nurbs_pso", "bezier", "bspline")}
+    assert "costs NURBS + PSO and the dual Bezier almost nothing and the cubic B-spline" in text
+    assert max(map(abs, rule_cost["nurbs_pso"] + rule_cost["bezier"])) < 0.005 < 0.05 < max(rule_cost["bspline"])
     names = {"w": "W", "dress": "dress", "torch": "torch"}
     slower = [names[c] for c in names if configured[c]["nurbs_pso"]["saved_vs_g01_pct"]["toppra_bound"] < 0]
     assert f"is the faster on {' and '.join(slower)}," in text
