@@ -10,9 +10,11 @@ time-optimal bound, which has no jerk limit.  Two questions a reader of that tab
   jerk limit lifted (:data:`LIFTED`: each S-curve becomes a trapezoid), is timed beside the bound; where
   the two agree, what is left of the gap is what the interval rule and the jerk limit cost.
 - **Can smoothing save time under these limits at all?**  The bound orders the G01 path and the smoothed
-  path as the fastest planner of each would: where the G01 path's bound is the lower, no planner of the
-  same limits makes the smoothed path the faster.  Repeated at higher tangential accelerations (the
-  corner speed matters more when the tool slows and speeds up quickly), it shows where the order turns.
+  path as each runs at its fastest under the limits without the jerk limit: where the G01 path's bound
+  is the lower, the smoothed path cannot be the faster when both run time-optimally.  (With the jerk
+  limit no such bound is computed here: a planner could be further from the optimum on one path than on
+  the other.)  Repeated at higher tangential accelerations (the corner speed matters more when the tool
+  slows and speeds up quickly), it shows where the order turns.
 
 Run: ``python -m toolpath.bench --only planner`` -> ``reports/bench/planner_limit.json``.  Smooths the
 case paths itself (NURBS + PSO, dual Bezier, B-spline; the surrogates need the pipeline's networks).
@@ -52,8 +54,8 @@ def times(points: np.ndarray, rho: np.ndarray, machine: Machine, straight: bool,
 
 def measure(cases: list[str], corner_settings, machine: Machine, band: float, accelerations: list[float],
             methods: tuple[str, ...] = METHODS) -> dict:
-    """Per tangential acceleration, case and path (``g01`` and each method): the three times, and each
-    method's time saved against the G01 path under each (%)."""
+    """Per tangential acceleration, case and path (``g01`` and each method): the four times of :func:`times`,
+    each over the bound (%), and each method's time saved against the G01 path under each (%)."""
     paths: dict[str, dict[str, tuple[np.ndarray, np.ndarray, bool]]] = {}
     for case in cases:
         points = case_path(case)
