@@ -47,12 +47,10 @@ repro: install
 readme: install
 	$(PY) -m toolpath.reports.readme
 
-## The whole test suite (unit, config, stage and one end-to-end pipeline test).  Three xdist workers on two
-## cores: the end-to-end pipeline (mostly one core, waiting on process start-up between its stages) and the
-## DVC-queue test start first, and the unit tests fill the cores around them (faster here than two workers,
-## measured side by side in one evening: the closing note of issue 45).
+## The whole test suite (unit, config, stage and one end-to-end pipeline test).  Two xdist workers:
+## the end-to-end pipeline (mostly one busy core: process start-up) runs beside the rest.
 test: install
-	$(VENV)/bin/pytest -n 3 --dist loadgroup
+	$(VENV)/bin/pytest -n 2 --dist loadgroup
 
 test-fast: install
 	$(VENV)/bin/pytest -m "not slow"

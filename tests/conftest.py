@@ -72,7 +72,7 @@ LONG_GROUPS = ("pipeline", "queue")  # the end-to-end runs: minutes each
 
 
 def pytest_collection_modifyitems(config, items):
-    """Run the end-to-end groups first: two of `make test`'s workers each start with one and share the unit
+    """Run the end-to-end groups first: `make test`'s two workers each start with one and share the unit
     tests after, instead of one worker reaching a several-minute test last."""
     def rank(item):
         marker = item.get_closest_marker("xdist_group")
