@@ -48,7 +48,10 @@ def test_on_a_smoothed_case_the_pointwise_planner_without_jerk_meets_the_bound_a
     assert set(rows) == {"g01", "bezier"}
     for row in rows.values():  # the interval rule and the jerk limit account for the whole gap to the bound
         assert abs(row["pointwise_without_jerk_limit_over_bound_pct"]) < 0.5
-        assert row["planner"] >= row["pointwise"] * (1 - 1e-9) >= row["pointwise_without_jerk_limit"]
+        # lifting the jerk limit only shortens ramps; the interval rule against point by point has no order in
+        # general (many small S-curves can cost more than one lower speed), so none is asserted
+        assert row["pointwise"] > row["pointwise_without_jerk_limit"]
+        assert row["planner"] > row["toppra_bound"] and row["pointwise"] > row["toppra_bound"]
     bezier, g01 = rows["bezier"], rows["g01"]
     expected = 100 * (1 - bezier["toppra_bound"] / g01["toppra_bound"])
     assert bezier["saved_vs_g01_pct"]["toppra_bound"] == pytest.approx(expected)
