@@ -36,10 +36,12 @@ $(STAMP): pyproject.toml Makefile | $(PY)
 install: $(STAMP)
 
 ## Compose conf/ into params.yaml (byte-identical to `dvc exp run`), then run the pipeline, timing
-## every stage (reports/pipeline_time.json: seconds per stage and per stage family).
+## every stage (reports/pipeline_time.json: seconds per stage and per stage family), each stage forked
+## from one process that has imported the pipeline's libraries (toolpath.pipeline.warm).
 repro: install
 	$(PY) -m toolpath.pipeline.config
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.pipeline.stage_times -- $(VENV)/bin/dvc repro
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(PY) -m toolpath.pipeline.warm -- \
+		$(PY) -m toolpath.pipeline.stage_times -- $(VENV)/bin/dvc repro
 	$(PY) -m toolpath.reports.readme
 
 ## Put the measured figures into README.md: the report's summary block (reports/readme_block.md, a DVC output),

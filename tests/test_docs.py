@@ -135,3 +135,11 @@ def test_the_methods_page_orders_the_corner_paths_as_the_planner_bench_measured(
     assert f"is the faster on {' and '.join(slower)}," in text
     assert all(paths["nurbs_pso"]["saved_vs_g01_pct"]["toppra_bound"] < 0 for rows in higher for paths in rows.values())
     assert "and at 2.5x and 5x the tangential acceleration on all three cases" in text
+
+
+def test_readmes_warm_start_figures_are_the_committed_bench():
+    import json
+
+    bench = json.loads((REPO / "reports/bench/warm_start.json").read_text(encoding="utf-8"))
+    text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    assert f"{bench['saved_s_per_stage']:.1f} s of a small stage's {bench['cold_median_s']:.1f} s" in text

@@ -52,9 +52,9 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
 @pytest.mark.xdist_group("pipeline")
 def test_dvc_repro_on_smoke_profile(tmp_path):
     work, env, dvc = smoke_copy(tmp_path)
-    timing = tmp_path / "pipeline_time.json"  # `make repro`'s stage timer around the same `dvc repro`
-    run([sys.executable, "-m", "toolpath.pipeline.stage_times", "--out", str(timing), "--", *dvc, "repro"],
-        work, env)
+    timing = tmp_path / "pipeline_time.json"  # `make repro`'s warm server and stage timer around `dvc repro`
+    run([sys.executable, "-m", "toolpath.pipeline.warm", "--", sys.executable, "-m", "toolpath.pipeline.stage_times",
+         "--out", str(timing), "--", *dvc, "repro"], work, env)
     for shape in SHAPES:
         assert (work / f"data/windows/{shape}.npz").is_file()
         metrics = json.loads((work / f"reports/metrics/label/{shape}.json").read_text())
@@ -141,6 +141,8 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert_mlflow_store_reads_as_the_pipeline(work, env, json.loads(timing.read_text()))
+    # a stage run again in its own process, as a plain `dvc repro` runs it, writes the bytes its warm run wrote
+    run([sys.executable, "-m", "toolpath.stages.generate", "--shape", "maple_leaf"], work, env)
     assert "up to date" in run(dvc + ["repro"], work, env)
     classified = json.loads((work / "reports/metrics/classify.json").read_text())  # Table 5, the classify stage's
     assert set(classified["predictions"]) == {"mcrl", "mlp", "rule", "mlp_xy"}
@@ -194,6 +196,7 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dic
     assert 0 < len(parent.data.metrics) <= 60 and "table3.gear.mcrl.test_accuracy" in parent.data.metrics
     stages = [r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id]
     assert {"generate@gear", "train@mcrl", "compare", "report"} <= {r.info.run_name for r in stages}
+    assert {r.info.run_name: r.data.tags["start"] for r in stages} == {r.info.run_name: "warm" for r in stages}
     for r in stages:  # each stage's run lasts its work, and the parent spans them all
         assert r.info.status == "FINISHED" and r.info.end_time > r.info.start_time >= parent.info.start_time
         assert r.info.end_time <= parent.info.end_time

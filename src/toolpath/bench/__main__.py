@@ -1,6 +1,6 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences|planner]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences|planner|warm]
 [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
@@ -22,7 +22,8 @@ layer as the ONNX ``RNN`` node, as the exporter's unrolled steps and as the fewe
 both runtimes side by side (:mod:`toolpath.bench.recurrences`).  With ``--only planner``, writes
 ``reports/bench/planner_limit.json``: the corner cases under the planner, the planner without its tangential
 jerk limit and toppra's bound, at three tangential accelerations (:mod:`toolpath.bench.planner_limit`).
-Prints the tables.
+Writes ``reports/bench/warm_start.json``: one small stage started in its own process and handed to the warm
+server of ``make repro``, alternately (:mod:`toolpath.bench.warm_start`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -116,7 +117,7 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube",
-                                             "recurrences", "planner"),
+                                             "recurrences", "planner", "warm"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
@@ -134,6 +135,10 @@ def main(argv: list[str] | None = None) -> int:
         return _tube(args.shapes or list(config.load().shapes))
     if args.only == "planner":
         return _planner()
+    if args.only in (None, "warm"):
+        _warm_start()
+        if args.only == "warm":
+            return 0
     if args.only in (None, "recurrences"):
         _recurrences(args.threads, max(5, args.repeats // 3))
         if args.only == "recurrences":
@@ -174,6 +179,15 @@ def main(argv: list[str] | None = None) -> int:
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
     return _runtimes(args.threads, args.repeats) if args.only is None else 0
+
+
+def _warm_start() -> None:
+    from toolpath.bench.warm_start import bench_warm_start
+
+    result = bench_warm_start(Path.cwd())
+    write_json({"machine": machine(torch.get_num_threads()), **result}, OUT / "warm_start.json")
+    print(f"{result['stage']}: {result['cold_median_s']:.2f} s in its own process, {result['warm_median_s']:.2f} s "
+          f"handed to the warm server ({result['speedup']:.1f}x); wrote {OUT / 'warm_start.json'}")
 
 
 def _planner() -> int:

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from toolpath.pipeline.stage_times import end_line, started_at
+from toolpath.pipeline.warm import STAGE_PID_ENV
 
 EXPERIMENT = "cnc-curvature"
 EXPERIMENT_TAGS = {  # MLflow 3's UI opens a "custom model development" experiment on its runs table
@@ -155,10 +156,10 @@ def pipeline_key() -> str:
 
 
 def dvc_invocation() -> tuple[str, int]:
-    """(pid-start, start in ms) of the ``dvc`` process this stage runs under (else of this process)."""
+    """(pid-start, start in ms) of the ``dvc`` process this stage runs under (else of this stage's process)."""
     import psutil
 
-    found = me = psutil.Process()
+    found = me = psutil.Process(stage_pid())
     for process in me.parents():
         with contextlib.suppress(psutil.Error):
             if any(Path(word).name == "dvc" for word in process.cmdline()[:3]):  # dvc, python .../dvc, python -m dvc
@@ -167,11 +168,16 @@ def dvc_invocation() -> tuple[str, int]:
     return f"{found.pid}-{int(found.create_time())}", int(1000 * (started_at(found.pid) or found.create_time()))
 
 
+def stage_pid() -> int:
+    """The stage's process as DVC started it: this one, or the one that handed it to a warm runner (which it awaits)."""
+    return int(os.environ.get(STAGE_PID_ENV) or os.getpid())
+
+
 def process_start_ms() -> int:
-    """When this process started (ms since the epoch): a stage's run starts there, not at its first log."""
+    """When the stage's process started (ms since the epoch): a stage's run starts there, not at its first log."""
     import psutil
 
-    return int(1000 * (started_at(os.getpid()) or psutil.Process().create_time()))
+    return int(1000 * (started_at(stage_pid()) or psutil.Process(stage_pid()).create_time()))
 
 
 START_DRIFT_MS = 120_000  # a process's start as psutil reads it drifted 8 s over one 35-minute `dvc repro` here
@@ -260,6 +266,7 @@ def stage_run(stage: str, params: Mapping[str, Any] | None = None, **tags: str) 
         parent = with_retry(lambda: _parent_run_id(store, experiment, pipeline_key()))
     name = os.environ.get("DVC_STAGE") or stage
     run_tags = {"stage": stage, "git_commit": git_commit(), "pipeline_key": pipeline_key(), **tags,
+                "start": "warm" if os.environ.get(STAGE_PID_ENV) else "cold",
                 "mlflow.parentRunId": parent}
     created = with_retry(lambda: store.create_run(experiment, start_time=process_start_ms(), run_name=name,
                                                   tags=run_tags))

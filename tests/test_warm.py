@@ -1,0 +1,105 @@
+"""The warm server of `make repro` (toolpath.pipeline.warm): a stage handed to it runs as `python -m` would run
+it in the stage's own process (streams, folder, arguments, environment, exit status, signals); with no server the
+stage runs where it was started.  That a stage writes the same bytes either way is checked end to end
+(tests/test_pipeline.py: every stage of the smoke repro runs warm, one runs again cold, and DVC finds nothing
+changed)."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from toolpath.pipeline import warm
+
+PROBE = """
+import json, os, sys
+line = sys.stdin.readline().strip()
+print(json.dumps({"argv": sys.argv[1:], "cwd": os.getcwd(), "x": os.environ.get("PROBE_X"), "stdin": line,
+                  "stage_pid": os.environ.get("TOOLPATH_STAGE_PID"), "socket": os.environ.get("TOOLPATH_WARM_SOCKET"),
+                  "ours_loaded": "toolpath.stages" in sys.modules, "path0": sys.path[0]}))
+print("to stderr", file=sys.stderr)
+if "boom" in sys.argv:
+    raise RuntimeError("boom from the probe")
+if "sleep" in sys.argv:
+    open("pid", "w").write(str(os.getpid()))
+    import time
+    time.sleep(60)
+sys.exit(3)
+"""
+
+CLIENT = ("import sys; from pathlib import Path; from toolpath.pipeline.warm import run_in_server; "
+          "code = run_in_server(Path(sys.argv[1]), 'probe', sys.argv[2:]); "
+          "sys.exit(99 if code is None else code)")
+
+
+@pytest.fixture
+def server(tmp_path):
+    """A server without the preload (the mechanism under test, not the imports)."""
+    path = tmp_path / "s.sock"
+    process = subprocess.Popen([sys.executable, "-m", warm.MODULE, "--serve", str(path), "--cold"],
+                               start_new_session=True, stdout=subprocess.DEVNULL)
+    deadline = time.monotonic() + 30
+    while not path.exists():
+        assert process.poll() is None and time.monotonic() < deadline, "the server did not start"
+        time.sleep(0.02)
+    yield path
+    process.terminate()
+    process.wait(10)
+
+
+def probe_folder(tmp_path: Path) -> Path:
+    folder = tmp_path / "stage"
+    folder.mkdir()
+    (folder / "probe.py").write_text(PROBE)
+    return folder
+
+
+def test_a_handed_over_module_runs_with_the_stages_streams_folder_arguments_environment_and_exit_code(
+        server, tmp_path):
+    folder = probe_folder(tmp_path)
+    client = subprocess.Popen([sys.executable, "-c", CLIENT, str(server), "a", "b c"], cwd=folder,
+                              env={**os.environ, "PROBE_X": "1", warm.SOCKET_ENV: str(server)},
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    out, err = client.communicate("hello\n", timeout=60)
+    assert client.returncode == 3, err
+    seen = json.loads(out)
+    assert seen == {"argv": ["a", "b c"], "cwd": str(folder), "x": "1", "stdin": "hello",
+                    "stage_pid": str(client.pid), "socket": None, "ours_loaded": False, "path0": str(folder)}
+    assert "to stderr" in err
+
+
+def test_an_uncaught_exception_prints_its_traceback_and_exits_1(server, tmp_path):
+    done = subprocess.run([sys.executable, "-c", CLIENT, str(server), "boom"], cwd=probe_folder(tmp_path),
+                          input="\n", capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert "Traceback" in done.stderr and "RuntimeError: boom from the probe" in done.stderr
+
+
+def test_terminating_the_stages_process_terminates_its_runner(server, tmp_path):
+    folder = probe_folder(tmp_path)
+    client = subprocess.Popen([sys.executable, "-c", CLIENT, str(server), "sleep"], cwd=folder,
+                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    client.stdin.write(b"\n")
+    client.stdin.close()
+    deadline = time.monotonic() + 30
+    while not (folder / "pid").is_file() or not (folder / "pid").read_text():
+        assert time.monotonic() < deadline, "the runner did not start"
+        time.sleep(0.05)
+    runner = int((folder / "pid").read_text())
+    client.send_signal(signal.SIGTERM)
+    assert client.wait(30) == 128 + signal.SIGTERM  # forwarded: the runner's death is the stage's status
+    deadline = time.monotonic() + 10
+    while Path(f"/proc/{runner}").exists() and "Z" not in Path(f"/proc/{runner}/stat").read_text().split()[2]:
+        assert time.monotonic() < deadline, "the runner outlived its stage"
+        time.sleep(0.05)
+
+
+def test_without_a_server_or_for_another_interpreter_the_stage_runs_where_it_started(server, tmp_path, monkeypatch):
+    assert warm.run_in_server(tmp_path / "none.sock", "probe", []) is None
+    monkeypatch.setattr(warm, "_identity", lambda: {"python": "/elsewhere/python", "toolpath": "/elsewhere"})
+    assert warm.run_in_server(server, "probe", []) is None  # refused before any runner starts
