@@ -6,7 +6,8 @@
 * ``toolpath.smooth`` (the product) and ``toolpath.stages`` are leaves: nothing imports them, and no stage
   depends on the product, so a change confined to it leaves ``dvc status`` up to date;
 * domain packages import neither the pipeline's wiring (configuration, settings, tracking, workers) nor
-  Hydra, DVC or MLflow; they may use its pure parts, the seeds and the artifacts' schema and loaders;
+  Hydra, DVC or MLflow; they may use its pure parts, the seeds and the artifacts' schema and loaders, and
+  its process pools;
 * no import cycle between modules; no module over 400 lines; no stage module over 100.
 """
 
@@ -24,7 +25,10 @@ SRC = REPO / "src"
 PACKAGE = SRC / "toolpath"
 DOMAIN = ("corners", "feedrate", "gcode", "geometry", "inference", "models", "reports", "shapes", "smoothing")
 WIRING_LIBRARIES = ("hydra", "dvc", "mlflow")
-PURE_PIPELINE = {"toolpath.pipeline", "toolpath.pipeline.seeds", "toolpath.pipeline.artifacts"}
+# what domain packages may use of the pipeline: its pure parts, and process pools (forked by `make repro`'s warm
+# server, else spawned: no configuration, tracking or wiring library)
+PURE_PIPELINE = {"toolpath.pipeline", "toolpath.pipeline.seeds", "toolpath.pipeline.artifacts",
+                 "toolpath.pipeline.warm", "toolpath.pipeline.warm_pool"}
 
 
 def module_file(name: str) -> Path | None:

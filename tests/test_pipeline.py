@@ -39,7 +39,10 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
         (work / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(REPO / rel, work / rel)
     venv_bin = str(Path(sys.executable).parent)
+    # one torch thread per stage: beside the other test worker on two cores, a two-thread OpenMP loop spins
+    # against it (a smoke generalise stage took 90 s instead of 5)
     env = {**os.environ, "PATH": venv_bin + os.pathsep + os.environ["PATH"], "DVC_NO_ANALYTICS": "1",
+           "OMP_NUM_THREADS": "1",
            "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db",
            "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
     run(["git", "init", "-q"], work, env)
@@ -178,7 +181,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
 
 def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dict) -> None:
     """The store of one `dvc repro` as `mlflow ui` shows it: a model-training experiment, one parent
-    spanning its stages with the configuration and the report, runs that last their work (within 10 % of
+    spanning its stages with the configuration and the report, runs that last their work (within 10 %, or 1 s, of
     the stage timer's ``timing``), every trained network a logged model, each shape's best registered
     under an alias and loadable by `toolpath smooth`."""
     import torch
@@ -203,8 +206,10 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dic
     spans = {r.info.run_name: (r.info.end_time - r.info.start_time) / 1000 for r in stages}
     assert set(spans) == set(timing["stages"])
     off = {name: (round(span, 2), timing["stages"][name]) for name, span in spans.items()
-           if abs(span - timing["stages"][name]) > 0.1 * timing["stages"][name]}
-    assert not off, f"stage runs more than 10 % off the stage timer (run s, timer s): {off}"
+           if abs(span - timing["stages"][name]) > max(0.1 * timing["stages"][name], 1.0)}
+    # 1 s at least: the timer's span starts at DVC's "Running stage" line, before DVC starts the stage's process
+    # (up to 0.8 s later on a loaded machine), which a warm stage of 1.4 s can no longer hide in its 10 %
+    assert not off, f"stage runs more than 10 % (1 s) off the stage timer (run s, timer s): {off}"
     assert abs((parent.info.end_time - parent.info.start_time) / 1000 - timing["total_seconds"]) \
         <= 0.1 * timing["total_seconds"]
     models = [r for r in runs if "model" in r.data.tags and r.data.tags.get("stage", "").startswith("train")]

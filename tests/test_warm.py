@@ -103,3 +103,83 @@ def test_without_a_server_or_for_another_interpreter_the_stage_runs_where_it_sta
     assert warm.run_in_server(tmp_path / "none.sock", "probe", []) is None
     monkeypatch.setattr(warm, "_identity", lambda: {"python": "/elsewhere/python", "toolpath": "/elsewhere"})
     assert warm.run_in_server(server, "probe", []) is None  # refused before any runner starts
+
+
+def _square_with_offset(x):
+    return x * x + OFFSET[0]
+
+
+OFFSET = [0]
+
+
+def _set_offset(value):
+    OFFSET[0] = value
+
+
+def _fail(x):
+    raise ValueError(f"no {x}")
+
+
+def _die(_x):
+    os._exit(7)
+
+
+def test_a_warm_pool_runs_calls_in_forked_workers_with_the_initializer_and_their_exceptions(server, monkeypatch):
+    from toolpath.pipeline.warm_pool import WarmPool
+
+    with WarmPool(server, 2, initializer=_set_offset, initargs=(100,)) as pool:
+        assert list(pool.map(_square_with_offset, range(6))) == [100 + x * x for x in range(6)]
+        assert os.getpid() not in {f.result() for f in [pool.submit(os.getpid) for _ in range(4)]}
+        failed = pool.submit(_fail, 3)
+        with pytest.raises(ValueError, match="no 3") as raised:
+            failed.result()
+        assert "no 3" in str(raised.value.__cause__)  # the worker's traceback
+        assert pool.submit(_square_with_offset, 2).result() == 104  # the pool lives on after a call's exception
+
+
+def test_a_dying_warm_worker_breaks_its_pool(server):
+    from concurrent.futures.process import BrokenProcessPool
+
+    from toolpath.pipeline.warm_pool import WarmPool
+
+    with WarmPool(server, 1) as pool:
+        with pytest.raises(BrokenProcessPool):
+            pool.submit(_die, 0).result(timeout=30)
+        with pytest.raises(BrokenProcessPool):
+            pool.submit(_square_with_offset, 1).result(timeout=30)
+
+
+def test_a_process_pool_is_warm_only_under_a_server(server, monkeypatch):
+    from concurrent.futures import ProcessPoolExecutor
+
+    from toolpath.pipeline.warm_pool import WarmPool, process_pool
+
+    monkeypatch.delenv(warm.POOL_ENV, raising=False)
+    with process_pool(1) as pool:
+        assert isinstance(pool, ProcessPoolExecutor)
+    monkeypatch.setenv(warm.POOL_ENV, str(server))
+    with process_pool(1) as pool:
+        assert isinstance(pool, WarmPool) and pool.submit(_square_with_offset, 3).result() == 9
+    monkeypatch.setenv(warm.POOL_ENV, str(server.parent / "gone.sock"))
+    with process_pool(1) as pool:
+        assert isinstance(pool, ProcessPoolExecutor)
+
+
+def test_a_warm_pool_runs_functions_of_the_module_its_stage_runs_as_main(server, tmp_path):
+    """A stage module's own function, pickled as ``__main__.<name>``, runs in a warm worker (as in a spawned one)."""
+    folder = tmp_path / "stage"
+    folder.mkdir()
+    (folder / "poolstage.py").write_text(
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from toolpath.pipeline.warm_pool import WarmPool\n"
+        "def double(x):\n    return 2 * x\n"
+        "if __name__ == '__main__':\n"
+        "    with WarmPool(Path(sys.argv[1]), 2) as pool:\n"
+        "        print(list(pool.map(double, [1, 2, 3])))\n")
+    client = ("import sys; from pathlib import Path; from toolpath.pipeline.warm import run_in_server; "
+              "sys.exit(run_in_server(Path(sys.argv[1]), 'poolstage', sys.argv[1:]))")
+    done = subprocess.run([sys.executable, "-c", client, str(server)], cwd=folder, capture_output=True, text=True,
+                          timeout=60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "[2, 4, 6]"

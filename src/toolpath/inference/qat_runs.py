@@ -3,9 +3,8 @@ process, every shape of a model side by side, and the model's record (Sec. 5.1.2
 
 from __future__ import annotations
 
-import multiprocessing
 import traceback
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ import torch
 
 from toolpath.inference.qat import quantize_one, ship_int8
 from toolpath.pipeline import artifacts
+from toolpath.pipeline.warm_pool import process_pool
 
 TABLE3 = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
@@ -69,7 +69,7 @@ def run_all(jobs: list[tuple], workers: int, expected_seconds, progress) -> list
     (record, seconds, failure traceback) in job order, the same output for any schedule.  A job's ONNX
     export and runtime scoring (:func:`ship`) is a task of its own, queued when its QAT ends: three shapes
     on two workers then finish nearly together instead of the third running alone."""
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with process_pool(workers) as pool:
         order = sorted(range(len(jobs)), key=lambda k: -expected_seconds(k))
         results: list = [None] * len(jobs)
         for _ in progress(_finished(pool, [pool.submit(worker, jobs[k]) for k in order], order, results)):
@@ -77,7 +77,7 @@ def run_all(jobs: list[tuple], workers: int, expected_seconds, progress) -> list
         return results
 
 
-def _finished(pool: ProcessPoolExecutor, trained: list, order: list[int], results: list):
+def _finished(pool: Executor, trained: list, order: list[int], results: list):
     """Yield each job's index once its record is whole, filling ``results``."""
     pending = dict(zip(trained, order, strict=True))
     shipping: dict = {}

@@ -3,8 +3,6 @@ graph's form, side by side before any timing, and each model's files and per-ope
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import torch
@@ -14,6 +12,7 @@ from toolpath.inference.recurrences import compare_forms, graph_nodes, has_recur
 from toolpath.inference.runtimes import RUNTIMES, export_onnx, op_profile, runner
 from toolpath.inference.timing import timed
 from toolpath.pipeline import artifacts
+from toolpath.pipeline.warm_pool import process_pool
 
 
 def export_fp32(job: tuple) -> int:
@@ -26,7 +25,7 @@ def export_fp32(job: tuple) -> int:
 
 def export_all(jobs: list[tuple], workers: int) -> None:
     """Every export in spawned processes (up to 15 s each for the unrolled recurrent models)."""
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as exporters:
+    with process_pool(workers) as exporters:
         list(exporters.map(export_fp32, jobs))
 
 

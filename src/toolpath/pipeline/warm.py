@@ -40,12 +40,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 SOCKET_ENV = "TOOLPATH_WARM_SOCKET"
+POOL_ENV = "TOOLPATH_WARM_POOL"  # set in a runner: the server its stage's process pools fork workers from
 STAGE_PID_ENV = "TOOLPATH_STAGE_PID"  # set in a runner: the pid of the stage's process as DVC started it
 STAGES = "toolpath.stages."
 MODULE = "toolpath.pipeline.warm"  # this module's name (``__name__`` is ``__main__`` when it runs as the wrapper)
-# imported lazily by the stages (inside functions), so importing the stage modules does not load them
+# imported lazily by the stages (inside functions), so importing the stage modules does not load them;
+# torch._inductor: torch.use_deterministic_algorithms imports it (2.7 s) in the qat, benchmark and generalise stages
 LAZY_IMPORTS = ("mlflow", "mlflow.store.tracking.sqlalchemy_store", "mlflow.entities", "mlflow.models",
-                "mlflow.pytorch", "mlflow.system_metrics.system_metrics_monitor", "psutil", "numba")
+                "mlflow.pytorch", "mlflow.onnx", "mlflow.system_metrics.system_metrics_monitor", "psutil", "numba",
+                "torch._inductor")
 _HEADER = struct.Struct("!I")
 
 
@@ -57,7 +60,10 @@ class Job:
     args: list[str]
     cwd: str
     env: dict[str, str]
-    fds: list[int]  # the stage process's stdin, stdout, stderr
+    fds: list[int]  # the stage process's stdin, stdout, stderr (a pool worker: and its channel)
+    kind: str = "stage"  # or "worker": a process of a stage's pool (toolpath.pipeline.warm_pool)
+    sys_path: list[str] | None = None  # a worker's: its stage's
+    main: str | None = None  # a worker's: the module its stage runs as __main__ (functions pickled from there)
 
 
 def _identity() -> dict[str, str]:
@@ -83,31 +89,17 @@ def hand_over_stage() -> None:
 def run_in_server(path: Path, module: str, args: list[str]) -> int | None:
     """Run ``python -m module *args`` in the warm server at ``path`` with this process's standard streams,
     folder and environment; its exit code (128 + n for a signal n), or None if no server took it."""
-    conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        conn.connect(str(path))
-    except OSError:
-        conn.close()
+    env = {k: v for k, v in os.environ.items() if k != SOCKET_ENV}
+    started = start(path, {"module": module, "args": args, "env": {**env, STAGE_PID_ENV: str(os.getpid())}},
+                    [0, 1, 2])
+    if started is None:
         return None
+    conn, runner = started
     with conn:
-        env = {k: v for k, v in os.environ.items() if k != SOCKET_ENV}
-        request = {**_identity(), "module": module, "args": args, "cwd": os.getcwd(),
-                   "env": {**env, STAGE_PID_ENV: str(os.getpid())}}
-        payload = json.dumps(request).encode()
-        try:
-            socket.send_fds(conn, [_HEADER.pack(len(payload))], [0, 1, 2])
-            conn.sendall(payload)
-        except OSError:
-            return None
-        replies = conn.makefile("r", encoding="utf-8")
-        first = replies.readline().split()
-        if first[:1] != ["pid"]:
-            return None  # refused (another interpreter or checkout) or gone: run here
-        runner = int(first[1])
         forward = {sig: signal.signal(sig, lambda s, _f: _kill(runner, s))
                    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
         try:
-            status = replies.readline().split()
+            status = conn.makefile("r", encoding="utf-8").readline().split()
         finally:
             for sig, handler in forward.items():
                 signal.signal(sig, handler)
@@ -117,6 +109,25 @@ def run_in_server(path: Path, module: str, args: list[str]) -> int | None:
         return 128 + int(status[1])
     print(f"toolpath: the warm server lost stage {module} (runner {runner})", file=sys.stderr)
     return 1
+
+
+def start(path: Path, request: dict, fds: list[int]) -> tuple[socket.socket, int] | None:
+    """Have the server at ``path`` fork a runner for ``request`` (``module``, ``args``, ``env``; ``kind``
+    "worker" for a pool worker) given ``fds`` as its 0, 1, 2 (and 3); the connection on which the runner's
+    exit status will come, and the runner's pid; None if no server took it."""
+    conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        conn.connect(str(path))
+        payload = json.dumps({**_identity(), "cwd": os.getcwd(), **request}).encode()
+        socket.send_fds(conn, [_HEADER.pack(len(payload))], fds)
+        conn.sendall(payload)
+        first = conn.makefile("r", encoding="utf-8").readline().split()
+    except OSError:
+        first = []
+    if first[:1] != ["pid"]:
+        conn.close()
+        return None  # refused (another interpreter or checkout) or gone
+    return conn, int(first[1])
 
 
 def _kill(pid: int, sig: int) -> None:
@@ -169,6 +180,7 @@ def serve(path: Path, warm: bool = True) -> Job | None:
                 continue
             if os.fork() == 0:
                 listener.close()
+                job.env[POOL_ENV] = str(path)  # the stage's pools fork their workers here too
                 return _watch(conn, job)  # returns in the runner only
             conn.close()
             for fd in job.fds:
@@ -179,7 +191,7 @@ def serve(path: Path, warm: bool = True) -> Job | None:
 def _receive(conn: socket.socket, identity: dict[str, str]) -> Job | None:
     """A stage's request, or None (refused: told so) for another interpreter or toolpath checkout."""
     try:
-        header, fds, _, _ = socket.recv_fds(conn, _HEADER.size, 3)
+        header, fds, _, _ = socket.recv_fds(conn, _HEADER.size, 4)
         (size,) = _HEADER.unpack(header)
         payload = b""
         while len(payload) < size:
@@ -190,13 +202,15 @@ def _receive(conn: socket.socket, identity: dict[str, str]) -> Job | None:
         request = json.loads(payload)
     except (OSError, ValueError, struct.error):
         return None
-    if any(request.get(k) != v for k, v in identity.items()) or len(fds) != 3:
+    kind = request.get("kind", "stage")
+    if any(request.get(k) != v for k, v in identity.items()) or len(fds) != (3 if kind == "stage" else 4):
         for fd in fds:
             os.close(fd)
         with contextlib.suppress(OSError):
             conn.sendall(b"refused another interpreter or checkout\n")
         return None
-    return Job(request["module"], request["args"], request["cwd"], request["env"], fds)
+    return Job(request.get("module", ""), request.get("args", []), request["cwd"], request["env"], fds, kind,
+               request.get("sys_path"), request.get("main"))
 
 
 def _watch(conn: socket.socket, job: Job) -> Job:
@@ -239,19 +253,12 @@ def _wait(pid: int, conn: socket.socket) -> int:
                 time.sleep(0.05)
 
 
-def run_job(job: Job) -> int:
-    """In the runner: become the stage's process (streams, folder, environment, arguments), run its module
-    as ``python -m`` would and end as it would (exit code, traceback), without the interpreter's teardown
-    of every module (0.5-1.7 s after a stage with torch and MLflow loaded): non-daemon threads joined,
-    ``atexit`` handlers run (MLflow's, logging's flush), streams flushed, then ``os._exit``."""
-    import atexit
-    import runpy
-    import threading
-
-    for target, fd in enumerate(job.fds):
+def become(job: Job) -> None:
+    """In a runner: take the stage's streams (fresh stream objects, so buffering and isatty follow them, not
+    the server's), folder, environment and import path (``python -m``'s: the folder first)."""
+    for target, fd in enumerate(job.fds[:3]):
         os.dup2(fd, target)
         os.close(fd)
-    # fresh stream objects: buffering and isatty follow the stage's own streams, not the server's
     sys.stdin = sys.__stdin__ = open(0, encoding=sys.stdin.encoding, closefd=False)  # noqa: SIM115
     sys.stdout = sys.__stdout__ = open(1, "w", encoding=sys.stdout.encoding, closefd=False,  # noqa: SIM115
                                        buffering=1 if os.isatty(1) else -1)
@@ -260,7 +267,18 @@ def run_job(job: Job) -> int:
     os.chdir(job.cwd)
     os.environ.clear()
     os.environ.update(job.env)
-    sys.path[0] = job.cwd
+    if job.sys_path is not None:
+        sys.path[:] = job.sys_path
+    else:
+        sys.path[0] = job.cwd
+
+
+def run_job(job: Job) -> int:
+    """In the runner: become the stage's process and run its module as ``python -m`` would, ending as it
+    would (exit code, traceback) but without the interpreter's teardown of every module (:func:`finish`)."""
+    import runpy
+
+    become(job)
     sys.argv = [job.module, *job.args]
     try:
         runpy.run_module(job.module, run_name="__main__", alter_sys=True)
@@ -272,6 +290,16 @@ def run_job(job: Job) -> int:
     except BaseException:  # noqa: BLE001 -- reported as an uncaught exception is, then the process ends
         sys.excepthook(*sys.exc_info())
         code = 1
+    return finish(code)
+
+
+def finish(code: int) -> int:
+    """End a runner as the interpreter would, without its teardown of every module (0.5-1.7 s after a stage
+    with torch and MLflow loaded): non-daemon threads joined, ``atexit`` handlers run (MLflow's, logging's
+    flush), streams flushed, then ``os._exit``."""
+    import atexit
+    import threading
+
     for thread in threading.enumerate():
         if thread is not threading.main_thread() and not thread.daemon:
             thread.join()
@@ -324,6 +352,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.serve:
         job = serve(args.serve, warm=not args.cold)
+        if job is not None and job.kind == "worker":
+            from toolpath.pipeline.warm_pool import serve_calls
+
+            return serve_calls(job)
         return 0 if job is None else run_job(job)
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
     if not command:

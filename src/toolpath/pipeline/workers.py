@@ -4,14 +4,14 @@ between stages are :mod:`toolpath.pipeline.artifacts`."""
 from __future__ import annotations
 
 import argparse
-import multiprocessing
 import shutil
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TypeVar
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from toolpath.pipeline.warm_pool import process_pool
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -50,10 +50,11 @@ def progress(items: Iterable[T], label: str, total: int | None = None) -> Iterat
 def pool_map(fn: Callable[[T], R], jobs: list[T], workers: int, label: str) -> list[R]:
     """``[fn(job) for job in jobs]`` over ``workers`` processes, in job order whatever the worker count,
     with a progress bar.  ``dvc repro`` runs one stage at a time, so a one-process stage leaves a core
-    idle.  Spawned, not forked: the stage process holds MLflow's threads (and maybe torch's)."""
+    idle.  Not forked from the stage, which holds MLflow's threads (and maybe torch's): forked by the warm
+    server, else spawned (:func:`~toolpath.pipeline.warm_pool.process_pool`)."""
     if workers <= 1:
         return [fn(job) for job in progress(jobs, label)]
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with process_pool(workers) as pool:
         futures = [pool.submit(fn, job) for job in jobs]
         return [f.result() for f in progress(futures, label)]
 

@@ -12,12 +12,10 @@ convergence curves and every smoothed window, at the paths of :class:`toolpath.p
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
-
 import numpy as np
 
 from toolpath.pipeline import artifacts, config, settings, tracking
+from toolpath.pipeline.warm_pool import process_pool
 from toolpath.pipeline.workers import grouped_metrics, progress, shape_arg
 from toolpath.smoothing import runs
 from toolpath.smoothing.evaluate import ROW_FIELDS, timing
@@ -44,9 +42,8 @@ def main(argv: list[str] | None = None) -> None:
     with tracking.stage_run(f"optimize@{args.shape}", params, shape=args.shape):
         import mlflow
 
-        # spawn, not fork: the parent holds MLflow's threads; results do not depend on the worker count
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(settings.workers(cfg, "optimize"), mp_context=spawn) as pool:
+        # not forked from here: the parent holds MLflow's threads; results do not depend on the worker count
+        with process_pool(settings.workers(cfg, "optimize")) as pool:
             cells = [(windows[i], g, ocfg, seed("study", str(i))) for g in study["generations"] for i in studied]
             fits = [f.result() for f in progress([pool.submit(runs.run_study_task, c) for c in cells],
                                                   f"NACOA study {args.shape}")]

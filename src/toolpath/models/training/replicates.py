@@ -12,16 +12,16 @@ each: results depend on the thread count, so it is fixed, never "whatever is fre
 
 from __future__ import annotations
 
-import multiprocessing
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from toolpath.models.training.metrics import DEGENERATE, degenerate, program_bootstrap
+from toolpath.pipeline.warm_pool import process_pool
 
 SCALARS = ("accuracy", "loss", "precision", "recall", "f1", "auc")
 
@@ -99,10 +99,8 @@ def run_all(jobs: Sequence[Job], parts: Mapping[str, Mapping[str, tuple[np.ndarr
         _init(parts, programs, threads)
         yield from map(_run, jobs)
         return
-    # spawn, not fork: a forked torch with live OpenMP threads can hang
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_init,
-                             initargs=(parts, programs, threads)) as pool:
+    # not forked from this process: a forked torch with live OpenMP threads can hang
+    with process_pool(workers, initializer=_init, initargs=(parts, programs, threads)) as pool:
         futures = [pool.submit(_run, job) for job in jobs]
         yield from (future.result() for future in as_completed(futures))
 
