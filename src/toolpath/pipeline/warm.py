@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import json
 import os
 import selectors
@@ -167,6 +168,11 @@ def serve(path: Path, warm: bool = True) -> Job | None:
         listener.listen(64)
         if warm:
             preload()
+        # what is loaded now stays out of every runner's garbage collections: a full collection would walk the
+        # millions of objects of torch & co. (which a spawned process imports in part), and writing their headers
+        # would copy the pages the runners share with this process
+        gc.collect()
+        gc.freeze()
         listener.settimeout(1.0)
         while os.getppid() == parent:
             try:
