@@ -143,3 +143,4 @@ def test_readmes_warm_start_figures_are_the_committed_bench():
     bench = json.loads((REPO / "reports/bench/warm_start.json").read_text(encoding="utf-8"))
     text = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
     assert f"{bench['saved_s_per_stage']:.1f} s of a small stage's {bench['cold_median_s']:.1f} s" in text
+    assert f"MCRL training steps: {bench['training_steps']['forked_vs_spawned']:.2f}x the time" in text

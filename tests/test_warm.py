@@ -183,3 +183,18 @@ def test_a_warm_pool_runs_functions_of_the_module_its_stage_runs_as_main(server,
                           timeout=60)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip() == "[2, 4, 6]"
+
+
+def test_a_warm_pool_runs_functions_of_a_script_run_as_main(server, tmp_path):
+    script = tmp_path / "poolscript.py"
+    script.write_text(
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from toolpath.pipeline.warm_pool import WarmPool\n"
+        "def triple(x):\n    return 3 * x\n"
+        "if __name__ == '__main__':\n"
+        "    with WarmPool(Path(sys.argv[1]), 1) as pool:\n"
+        "        print(list(pool.map(triple, [1, 2])))\n")
+    done = subprocess.run([sys.executable, str(script), str(server)], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "[3, 6]"

@@ -65,12 +65,12 @@ def bench_warm_start(root: Path, repeats: int = 3) -> dict:
                     raise RuntimeError("the warm server did not start")
                 time.sleep(0.02)
             # the same work in a spawned worker and in one the warm server forks: is a forked worker's compute slower?
-            work: dict[str, list[float]] = {"spawned": [], "forked": []}
+            steps: dict[str, list[float]] = {"spawned": [], "forked": []}
             for seed in range(repeats):
                 with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-                    work["spawned"].append(pool.submit(training_steps, seed).result())
+                    steps["spawned"].append(pool.submit(training_steps, seed).result())
                 with WarmPool(socket_path, 1) as pool:
-                    work["forked"].append(pool.submit(training_steps, seed).result())
+                    steps["forked"].append(pool.submit(training_steps, seed).result())
             command = [sys.executable, "-m", f"toolpath.stages.{STAGE[0]}", *STAGE[1:]]
             seconds: dict[str, list[float]] = {"cold": [], "warm": []}
             for _ in range(repeats + 1):
@@ -85,6 +85,6 @@ def bench_warm_start(root: Path, repeats: int = 3) -> dict:
     return {"stage": f"{STAGE[0]}@{STAGE[2]} (smoke profile)", "repeats": repeats,
             "cold_s": seconds["cold"][1:], "warm_s": seconds["warm"][1:], "cold_median_s": cold,
             "warm_median_s": hot, "saved_s_per_stage": cold - hot, "speedup": cold / hot,
-            "training_steps": {"steps": TRAINING_STEPS, "spawned_s": work["spawned"], "forked_s": work["forked"],
-                               "forked_vs_spawned": statistics.median(work["forked"]) /
-                               statistics.median(work["spawned"])}}
+            "training_steps": {"steps": TRAINING_STEPS, "spawned_s": steps["spawned"], "forked_s": steps["forked"],
+                               "forked_vs_spawned": statistics.median(steps["forked"]) /
+                               statistics.median(steps["spawned"])}}

@@ -75,7 +75,7 @@ class WarmPool(Executor):
     def _start_worker(self, path: Path, init: tuple) -> tuple[socket.socket, socket.socket, threading.Thread]:
         ours, theirs = socket.socketpair()
         with open(os.devnull, "rb") as nothing:
-            main = getattr(getattr(sys.modules.get("__main__"), "__spec__", None), "name", None)
+            main = _main_module()
             started = warm.start(path, {"kind": "worker", "env": dict(os.environ), "sys_path": list(sys.path),
                                         "main": main}, [nothing.fileno(), 1, 2, theirs.fileno()])
         theirs.close()
@@ -181,14 +181,24 @@ def _exactly(channel: socket.socket, size: int) -> bytes:
     return b"".join(chunks)
 
 
-def _main_as(name: str) -> None:
+def _main_module() -> str | None:
+    """This process's main module: its name (``python -m``), else the path of its script, else None."""
+    main = sys.modules.get("__main__")
+    name = getattr(getattr(main, "__spec__", None), "name", None)
+    path = getattr(main, "__file__", None)
+    return name or (f"path:{os.path.abspath(path)}" if path else None)
+
+
+def _main_as(main: str) -> None:
     """Load the stage's main module as ``__main__`` without running its main block, so functions pickled from
     it resolve (as a spawned worker does: multiprocessing loads it as ``__mp_main__``)."""
     import runpy
     import types
 
     module = types.ModuleType("__mp_main__")
-    module.__dict__.update(runpy.run_module(name, run_name="__mp_main__", alter_sys=True))
+    found = runpy.run_path(main[5:], run_name="__mp_main__") if main.startswith("path:") else \
+        runpy.run_module(main, run_name="__mp_main__", alter_sys=True)
+    module.__dict__.update(found)
     sys.modules["__main__"] = sys.modules["__mp_main__"] = module
 
 
