@@ -80,3 +80,24 @@ def pytest_collection_modifyitems(config, items):
         return LONG_GROUPS.index(group) if group in LONG_GROUPS else len(LONG_GROUPS)
 
     items.sort(key=rank)  # stable: every other test keeps its order
+
+
+@pytest.fixture
+def warm_server(tmp_path):
+    """A warm server (toolpath.pipeline.warm) without the preload, at the socket path it yields."""
+    import subprocess
+    import sys
+    import time
+
+    from toolpath.pipeline import warm
+
+    path = tmp_path / "warm.sock"
+    process = subprocess.Popen([sys.executable, "-m", warm.MODULE, "--serve", str(path), "--cold"],
+                               start_new_session=True, stdout=subprocess.DEVNULL)
+    deadline = time.monotonic() + 30
+    while not path.exists():
+        assert process.poll() is None and time.monotonic() < deadline, "the warm server did not start"
+        time.sleep(0.02)
+    yield path
+    process.terminate()
+    process.wait(10)

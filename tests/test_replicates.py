@@ -84,11 +84,13 @@ def test_table3_shows_mean_sd_beside_the_paper_and_flags_degenerate_models():
     assert xy.rows[0][1] == mcrl[1]  # the paper's MCRL row beside mcrl_xy
 
 
-def test_two_workers_give_the_bytes_one_worker_gives():
-    """Each run depends on its job and the thread count only, never on which worker ran it or when."""
+def test_two_workers_give_the_bytes_one_worker_gives(warm_server, monkeypatch):
+    """Each run depends on its job and the thread count only, never on which worker ran it or when, nor on
+    whether the worker was spawned or forked by `make repro`'s warm server."""
     import torch
 
     from toolpath.models.training.replicates import run_all
+    from toolpath.pipeline.warm import POOL_ENV
 
     rng = np.random.default_rng(0)
     windows = rng.normal(size=(48, 50, 2)).cumsum(axis=1).astype(np.float32)
@@ -98,12 +100,15 @@ def test_two_workers_give_the_bytes_one_worker_gives():
     network = {"_target_": "toolpath.models.MLP", "hidden": [8]}
     jobs = [Job("mlp", r, network, {"epochs": 1, "batch_size": 8, "seed": r, "schedule": "onecycle"}) for r in range(3)]
     results = {}
-    for workers in (1, 2):
+    for workers, pool in ((1, None), (2, None), (2, warm_server)):
+        if pool is not None:
+            monkeypatch.setenv(POOL_ENV, str(pool))  # as in a stage the warm server runs
         outcomes = sorted(run_all(jobs, {"": parts}, {"": programs}, workers=workers, threads=1),
                           key=lambda o: o.job.replicate)
-        results[workers] = [(o.metrics["test"]["loss"], o.checkpoint["state_dict"]) for o in outcomes]
-    for (loss1, state1), (loss2, state2) in zip(results[1], results[2], strict=True):
-        assert loss1 == loss2 and all(torch.equal(state1[k], state2[k]) for k in state1)
+        results[workers, pool] = [(o.metrics["test"]["loss"], o.checkpoint["state_dict"]) for o in outcomes]
+    for other in ((2, None), (2, warm_server)):
+        for (loss1, state1), (loss2, state2) in zip(results[1, None], results[other], strict=True):
+            assert loss1 == loss2 and all(torch.equal(state1[k], state2[k]) for k in state1)
 
 
 def test_the_best_learned_model_is_chosen_on_validation_never_the_rule_or_a_degenerate_one():

@@ -38,18 +38,8 @@ CLIENT = ("import sys; from pathlib import Path; from toolpath.pipeline.warm imp
 
 
 @pytest.fixture
-def server(tmp_path):
-    """A server without the preload (the mechanism under test, not the imports)."""
-    path = tmp_path / "s.sock"
-    process = subprocess.Popen([sys.executable, "-m", warm.MODULE, "--serve", str(path), "--cold"],
-                               start_new_session=True, stdout=subprocess.DEVNULL)
-    deadline = time.monotonic() + 30
-    while not path.exists():
-        assert process.poll() is None and time.monotonic() < deadline, "the server did not start"
-        time.sleep(0.02)
-    yield path
-    process.terminate()
-    process.wait(10)
+def server(warm_server):
+    return warm_server
 
 
 def probe_folder(tmp_path: Path) -> Path:
@@ -198,3 +188,13 @@ def test_a_warm_pool_runs_functions_of_a_script_run_as_main(server, tmp_path):
     done = subprocess.run([sys.executable, str(script), str(server)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip() == "[3, 6]"
+
+
+def test_a_stage_the_named_server_does_not_take_says_so_and_runs_where_it_started(tmp_path):
+    folder = probe_folder(tmp_path)
+    done = subprocess.run([sys.executable, "-c", "from toolpath.pipeline.warm import hand_over_stage; "
+                           "import sys; sys.orig_argv[1:] = ['-m', 'toolpath.stages.nothing']; hand_over_stage(); "
+                           "print('ran here')"], cwd=folder, capture_output=True, text=True, timeout=60,
+                          env={**os.environ, warm.SOCKET_ENV: str(tmp_path / "gone")})
+    assert done.returncode == 0 and done.stdout.strip() == "ran here"
+    assert f"the warm server at {tmp_path / 'gone'} did not take toolpath.stages.nothing" in done.stderr

@@ -85,6 +85,8 @@ def hand_over_stage() -> None:
     code = run_in_server(Path(path), argv[2], argv[3:])
     if code is not None:
         sys.exit(code)
+    print(f"toolpath: the warm server at {path} did not take {argv[2]} (gone, or started from another interpreter "
+          "or checkout): running it in this process", file=sys.stderr)
 
 
 def run_in_server(path: Path, module: str, args: list[str]) -> int | None:

@@ -43,8 +43,8 @@ def process_pool(workers: int, initializer: Callable[..., Any] | None = None, in
     if path:
         try:
             return WarmPool(Path(path), workers, initializer, initargs)
-        except OSError:
-            pass  # the server is gone: spawn
+        except OSError as exc:
+            print(f"toolpath: no warm workers from {path} ({exc}): spawning them", file=sys.stderr)
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=initializer,
                                initargs=initargs)
 
