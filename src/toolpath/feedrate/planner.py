@@ -8,9 +8,10 @@ leaves open, and what we chose:
 
 1. **Intervals.**  As the paper says, a sensitive interval is a run of consecutive sample points
    whose limit lies below the programmed feed, run at its lowest limit (constant speed), so every
-   constraint of Eq. 15-22 holds inside it.  Beyond the paper, ``band`` (off by default) cuts a run
-   into several intervals whose limits lie within ``band`` of each other, so a long curve of
-   varying curvature is not run everywhere at its tightest speed.  On a G01 path the limits bind
+   constraint of Eq. 15-22 holds inside it.  Beyond the paper, ``band`` (off in this function; the
+   pipeline's ``feedrate.band`` is 0) cuts a run into several intervals whose limits lie within
+   ``band`` of each other, so a long curve of varying curvature is not run everywhere at its
+   tightest speed; ``band=0`` reads the limit point by point, as a controller's look-ahead does.  On a G01 path the limits bind
    at the vertices and the straight segments between them are non-sensitive: a single sharp vertex
    is a sensitive interval of length zero, passed at its limit.
 2. **Where ramps go.**  The paper accelerates and decelerates in the non-sensitive intervals; we

@@ -152,7 +152,8 @@ def machine(cfg: DictConfig):
 
 
 def feed_band(cfg: DictConfig) -> float:
-    """``feedrate.band`` (null: the paper's interval rule, one band over a whole sensitive run)."""
+    """``feedrate.band`` (0, the default: point by point; null: the paper's interval rule, one band over a
+    whole sensitive run)."""
     return math.inf if cfg.feedrate.band is None else float(cfg.feedrate.band)
 
 
