@@ -172,6 +172,11 @@ def test_corner_cases_table_shows_each_time_and_flags_broken_limits():
     g01 = [r for r in table.rows if r[0] == "w" and r[1] == "G01 with controller blend"][0]
     assert g01[-1] == "NO"
     assert any(r[0] == "w" and r[7] == "9.876" for r in table.rows)
+    # the note names the planner's reading of a curve that the configuration chose (feedrate.band)
+    assert "read point by point" in " ".join(table.notes)
+    paper = " ".join(corner_report.cases_table(metrics, band=None).notes)
+    assert "each sensitive interval at its lowest limit" in paper and "point by point" not in paper
+    assert "varies by more than 0.1" in " ".join(corner_report.cases_table(metrics, band=0.1).notes)
 
 
 def test_corners_table_marks_a_corner_kept_sharp():

@@ -11,9 +11,9 @@ leaves open, and what we chose:
    constraint of Eq. 15-22 holds inside it.  Beyond the paper, ``band`` (off in this function; the
    pipeline's ``feedrate.band`` is 0) cuts a run into several intervals whose limits lie within
    ``band`` of each other, so a long curve of varying curvature is not run everywhere at its
-   tightest speed; ``band=0`` reads the limit point by point, as a controller's look-ahead does.  On a G01 path the limits bind
-   at the vertices and the straight segments between them are non-sensitive: a single sharp vertex
-   is a sensitive interval of length zero, passed at its limit.
+   tightest speed; ``band=0`` reads the limit point by point, as a controller's look-ahead does.
+   On a G01 path the limits bind at the vertices and the straight segments between them are
+   non-sensitive: a single sharp vertex is a sensitive interval of length zero, passed at its limit.
 2. **Where ramps go.**  The paper accelerates and decelerates in the non-sensitive intervals; we
    put each speed change wholly inside the faster of its two intervals (deceleration before the
    slower one starts, acceleration after it ends), which is a non-sensitive interval whenever one

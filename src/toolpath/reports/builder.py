@@ -339,7 +339,8 @@ class Report:
         cases, methods = list(metrics["cases"]), list(self.cfg.corner.methods)
         arrays = load_arrays(profiles, [], "corner profiles", "corner")
         rows = read_csv(lay.corner_rows)
-        parts = [self.table(corner_report.cases_table(metrics, rows, self.cfg.corner.delta_max),
+        parts = [self.table(corner_report.cases_table(metrics, rows, self.cfg.corner.delta_max,
+                                                          self.cfg.feedrate.band),
                             "table10_corner_cases"),
                  self.table([corner_report.corners_table(rows, case, methods) for case in cases], "table13_corners"),
                  self.table(corner_report.surrogate_table(metrics, read_json(timing)), "table11_surrogates"),

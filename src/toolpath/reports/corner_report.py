@@ -25,10 +25,12 @@ def _num(value: float | None, fmt: str) -> str:
     return "-" if value is None else f"{value:{fmt}}"
 
 
-def cases_table(metrics: Mapping, rows: Sequence[Mapping[str, str]] = (), delta_max: float | None = None) -> Table:
+def cases_table(metrics: Mapping, rows: Sequence[Mapping[str, str]] = (), delta_max: float | None = None,
+                band: float | None = 0.0) -> Table:
     """Per case and method: curvature reduction (mean / worst / best, against the circular blend and
     against method 1), two-sided error, inside-ness, time, its bounds and the time saved; ``rows`` (the
-    corner rows) give the W note the largest reduction any curve could reach."""
+    corner rows) give the W note the largest reduction any curve could reach; ``band``: the planner's
+    reading of a smooth curve (``feedrate.band``), named in the note."""
     table = Table("NURBS corner paper, cases 1-3: corner smoothing and machining time, ours (paper)",
                   ["case", "method", "corners (kept sharp)", "reduction vs arc: mean / worst / best %",
                    "reduction vs method 1: mean / worst / best %", "max two-sided error / mm", "all inside",
@@ -61,13 +63,23 @@ def cases_table(metrics: Mapping, rows: Sequence[Mapping[str, str]] = (), delta_
         "inside its corner. "
         "The paper's figures (in brackets) are its W case's largest reduction and its dress case's time saved against "
         "its refs. 20 / 21, which are not the transitions we compare with. Times are the NURBS corner paper's planner "
-        "(sensitive intervals at their lowest limit, S-curve ramps); the toppra bound has no jerk limit. "
+        f"({_reading(band)}, S-curve ramps under the tangential acceleration and jerk limits; a G01 vertex at its "
+        "limit on the controller's blend arc); the toppra bound has no jerk limit. "
         "'Kept sharp': corners no curve met Eq. 7 on (too little room), planned with the controller blend. "
         "NURBS + PSO's swarm holds method 1 at delta_max and the dual Bezier as its first best, so it is never "
         "sharper than either; in brackets after its count, the corners where one of them stayed best (method 2 was "
         "not flatter there).")
     table.notes += _against_paper(metrics, rows, delta_max)
     return table
+
+
+def _reading(band: float | None) -> str:
+    """How the planner read a smooth curve's limits (``feedrate.band``; choice 1 of toolpath.feedrate.planner)."""
+    if band is None:
+        return "the paper's rule: each sensitive interval at its lowest limit"
+    if band == 0:
+        return "read point by point: each sample of a curve at its own limit (feedrate.band 0)"
+    return f"a sensitive interval cut where its limit varies by more than {band:g} (feedrate.band)"
 
 
 def _families(r: Mapping) -> str:
