@@ -27,6 +27,7 @@ def checkout(tmp_path, monkeypatch):
     ("label.window=4", "label.window = 4: must be a whole number >= 10"),
     ("optimize.tolerance=-0.1", "optimize.tolerance = -0.1: must be a number > 0"),
     ("optimize.tolerance=nan", "optimize.tolerance = nan: must be a number > 0"),
+    ("feedrate.band=-0.5", "feedrate.band = -0.5: must be a number >= 0 (or null)"),
     ("seed=abc", "seed = 'abc': must be a whole number >= 0"),
     ("gcode.read.chord_tolerance=0", "gcode.read.chord_tolerance = 0: must be a number > 0"),
     ("resources.workers.train=0", "resources.workers.train = 0: must be a whole number >= 1"),

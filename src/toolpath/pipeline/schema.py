@@ -90,6 +90,7 @@ RULES: dict[str, Callable[[Any], str | None]] = {
     "benchmark.threads": _int(1), "benchmark.repeats": _int(1), "benchmark.warmup": _int(0), "benchmark.batch": _int(1),
     "benchmark.large_batch": _int(1), "benchmark.split_repeats": _int(1), "benchmark.max_drop_points": _real(ge=0),
     "feedrate.machine.*": POSITIVE, "feedrate.blend_tolerance": POSITIVE,
+    "feedrate.band": _real(ge=0, nullable=True),  # 0: point by point; null: the paper's interval rule
     "feedrate.bounds_every": _int(1),
     "sheets.width": POSITIVE, "sheets.height": POSITIVE,
 }
