@@ -228,9 +228,18 @@ def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dic
         assert version.source in {m.model_uri for m in logged if m.source_run_id == version.run_id}
     network = mlflow.pytorch.load_model("models:/toolpath-maple-leaf@best")  # one load: the same path for each
     assert network(torch.as_tensor(windows)).shape == (3, 4)
-    out = run([str(Path(sys.executable).parent / "toolpath"), "smooth", str(work / "data/gcode/gear/gear_000.nc"),
-               "-o", str(work / "out.nc"), "--classifier", "models:/toolpath-gear@best"], work, env)
-    assert (work / "out.nc").is_file(), out
+    # in this process (MLflow and torch are loaded: a new process would spend ~12 s importing them again); the
+    # console script itself runs in tests/test_cli.py and .ci/core-install
+    from toolpath.smooth.command import main as smooth
+
+    old = os.environ.get("MLFLOW_TRACKING_URI")
+    os.environ["MLFLOW_TRACKING_URI"] = env["MLFLOW_TRACKING_URI"]
+    try:
+        assert smooth([str(work / "data/gcode/gear/gear_000.nc"), "-o", str(work / "out.nc"),
+                       "--classifier", "models:/toolpath-gear@best"]) == 0
+    finally:
+        os.environ.pop("MLFLOW_TRACKING_URI") if old is None else os.environ.__setitem__("MLFLOW_TRACKING_URI", old)
+    assert (work / "out.nc").is_file()
 
 
 def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
