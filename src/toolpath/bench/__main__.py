@@ -1,6 +1,6 @@
 """Benchmarks (never timed tests).
 
-Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences|planner|warm]
+Run: python -m toolpath.bench [--only models|optimize|runtimes|gcode|arcs|programs|tube|recurrences|planner|warm|train]
 [--threads N]
 
 Writes ``reports/bench/models.json``: per model, the parameter count and the FP32 eager forward
@@ -23,7 +23,8 @@ both runtimes side by side (:mod:`toolpath.bench.recurrences`).  With ``--only p
 ``reports/bench/planner_limit.json``: the corner cases under the planner, the planner without its tangential
 jerk limit and toppra's bound, at three tangential accelerations (:mod:`toolpath.bench.planner_limit`).
 Writes ``reports/bench/warm_start.json``: one small stage started in its own process and handed to the warm
-server of ``make repro``, alternately (:mod:`toolpath.bench.warm_start`).  Prints the tables.
+server of ``make repro``, alternately (:mod:`toolpath.bench.warm_start`).  Writes ``reports/bench/train_steps.json``:
+a training step of every model, FLOPs beside the GEMM rate (:mod:`toolpath.bench.train_steps`).  Prints the tables.
 """
 
 from __future__ import annotations
@@ -117,7 +118,7 @@ def bench_optimize(repeats: int, generations: int, seed: int = 0) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", choices=("models", "optimize", "runtimes", "gcode", "arcs", "programs", "tube",
-                                             "recurrences", "planner", "warm"),
+                                             "recurrences", "planner", "warm", "train"),
                         help="run one benchmark (default: all)")
     parser.add_argument("--threads", type=int, default=2, help="torch intra-op threads")
     parser.add_argument("--repeats", type=int, default=30)
@@ -135,6 +136,10 @@ def main(argv: list[str] | None = None) -> int:
         return _tube(args.shapes or list(config.load().shapes))
     if args.only == "planner":
         return _planner()
+    if args.only in (None, "train"):
+        _train_steps(args.threads, max(5, args.repeats // 2))
+        if args.only == "train":
+            return 0
     if args.only in (None, "warm"):
         _warm_start()
         if args.only == "warm":
@@ -179,6 +184,18 @@ def main(argv: list[str] | None = None) -> int:
     Console().print(table)
     print(f"wrote {OUT / 'models.json'}")
     return _runtimes(args.threads, args.repeats) if args.only is None else 0
+
+
+def _train_steps(threads: int, repeats: int) -> None:
+    from toolpath.bench.train_steps import measure, stage_seconds
+
+    cfg = config.load()
+    result = measure(cfg.models, int(cfg.train.protocol.settings.batch_size), threads, repeats, stage_seconds())
+    write_json({"machine": machine(threads), **result}, OUT / "train_steps.json")
+    for name, row in result["models"].items():
+        share = "FLOPs uncounted" if row["share_of_gemm_peak"] is None else f"{row['share_of_gemm_peak']:.0%} of GEMM's rate"
+        print(f"{name}: {row['step_s'] * 1e3:.1f} ms a step, {share}")
+    print(f"wrote {OUT / 'train_steps.json'}")
 
 
 def _warm_start() -> None:
