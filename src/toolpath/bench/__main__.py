@@ -193,7 +193,7 @@ def _train_steps(threads: int, repeats: int) -> None:
     result = measure(cfg.models, int(cfg.train.protocol.settings.batch_size), threads, repeats, stage_seconds())
     write_json({"machine": machine(threads), **result}, OUT / "train_steps.json")
     for name, row in result["models"].items():
-        share = "FLOPs uncounted" if row["share_of_gemm_peak"] is None else f"{row['share_of_gemm_peak']:.0%} of GEMM's rate"
+        share = "FLOPs uncounted" if row["share_of_gemm_peak"] is None else f"{row['share_of_gemm_peak']:.0%} of GEMM"
         print(f"{name}: {row['step_s'] * 1e3:.1f} ms a step, {share}")
     print(f"wrote {OUT / 'train_steps.json'}")
 
