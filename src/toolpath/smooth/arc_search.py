@@ -26,7 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 FIRST_WINDOW = 16      # ends a start measures at first (the window doubles while arcs fit near its end)
-LAST_WINDOW = 256      # the longest window
+LAST_WINDOW = 256      # the longest window (NumPy: a batch holds some twenty (ends x points) arrays)
+COMPILED_LAST_WINDOW = 1024  # ... where the screen runs in compiled loops, one candidate at a time: fewer windows
+                             # a long arc (1,000,000-line arcs-only run: 14.8 s instead of 17.7, the same bytes)
 GALLOP = 64            # from windows this long on, a window's last ends are measured first: where an arc fits
                        # there, its other ends are taken to fit (the arcs chosen are measured again one by one)
 SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks
@@ -157,14 +159,16 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     ``open_end`` (those whose count a start of the chunk could lower) are measured, and a window with a
     closed end among its last goes on.  A window costs its open ends times its last end's length, so a
     start inside a long arc, whose arcs end just past ``known``, measures a few ends and not a block of
-    them.  From windows of ``GALLOP`` ends on, a window's last ends are measured first; where an arc fits
-    there, the window's other open ends are taken to fit (with no centre: the caller fits those afresh),
-    else they are measured in the next round."""
+    them; windows stop growing at ``LAST_WINDOW`` ends (``COMPILED_LAST_WINDOW`` in compiled loops).  From
+    windows of ``GALLOP`` ends on, a window's last ends are measured first; where an arc fits there, the
+    window's other open ends are taken to fit (with no centre: the caller fits those afresh), else they are
+    measured in the next round."""
     limit = np.minimum(max_segments, end - chunk)  # the last end (j) each start may reach
     first = np.maximum(known - chunk, 1)
     fits = [np.zeros(max(int(n), 0), bool) for n in limit]
     centres = [np.zeros((max(int(n), 0), 2)) for n in limit]
     width = np.full(len(chunk), FIRST_WINDOW)
+    longest = COMPILED_LAST_WINDOW if chain.compiled and compiled_kernels() is not None else LAST_WINDOW
     todo = first <= limit
     body_next = np.zeros(len(chunk), bool)  # a probed window whose last ends did not fit: its body is measured
     while todo.any():
@@ -193,7 +197,7 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
             body_next[r], advance[r] = False, True
             todo[r] = last[r] < limit[r] and (not tail_open.all() or tail_fits)
         first = np.where(advance, last + 1, first)
-        width = np.where(advance, np.minimum(2 * width, LAST_WINDOW), width)
+        width = np.where(advance, np.minimum(2 * width, longest), width)
     for k, i in enumerate(chunk.tolist()):
         yield i, fits[k], centres[k]
 
