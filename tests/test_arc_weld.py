@@ -14,7 +14,7 @@ from conftest import REPO
 from toolpath.gcode import ReaderOptions, read_text
 from toolpath.geometry.hausdorff import hausdorff, pieced_hausdorff
 from toolpath.geometry.labels.windows import feed_runs
-from toolpath.smooth.arc_weld import fit_arc, weld_arcs
+from toolpath.smooth.arc_weld import COMPILED_POINTS, fit_arc, weld_arcs
 
 CORPUS = REPO.parent / "shared" / "gcode-corpus"
 
@@ -522,21 +522,29 @@ def test_the_compiled_screen_gives_the_numpy_screens_bounds_to_the_bit(seed, mon
 
 def test_arcs_without_numba_are_the_arcs_with_it(monkeypatch):
     """The core install (no numba) welds the same arcs with the same figures: a long noisy arc whose check
-    runs pieced (the compiled measure where numba is installed) and the screen's bounds, both paths."""
+    runs pieced (the compiled measure where numba is installed) and the screen's bounds, both paths; a chain
+    long enough for the compiled loops' longer windows (arc_search.COMPILED_LAST_WINDOW) on one, NumPy's on
+    the other."""
     import importlib
 
     from toolpath.smooth import arc_search
 
     hausdorff_module = importlib.import_module("toolpath.geometry.hausdorff")  # the package exports a function
+    arc_weld_module = importlib.import_module("toolpath.smooth.arc_weld")
     if arc_search.compiled_kernels() is None or hausdorff_module.compiled_kernels() is None:
         pytest.skip("numba is not installed (the fast extra): only the NumPy path is there")
     rng = np.random.default_rng(3)
-    t = np.linspace(0.0, 2.5, 1500)
-    pts = np.column_stack([40.0 * np.cos(t), 40.0 * np.sin(t)]) + rng.normal(0.0, 0.002, (1500, 2))
+    count = COMPILED_POINTS + 100
+    t = np.linspace(0.0, 2.5 * count / 1500, count)
+    pts = np.column_stack([40.0 * np.cos(t), 40.0 * np.sin(t)]) + rng.normal(0.0, 0.002, (count, 2))
     text = "G21 G90 G17\nG0 X40 Y0\nG1 Z-1 F300\n" + "".join(f"G1 X{x:.4f} Y{y:.4f}\n" for x, y in pts) + "M30\n"
     program = read_text(text)
     monkeypatch.setattr(arc_search, "COMPILED_CELLS", 0)  # every batch of the screen in compiled loops
+    chains = []
+    search = arc_weld_module.fewest_blocks
+    monkeypatch.setattr(arc_weld_module, "fewest_blocks", lambda chain, *a: chains.append(chain) or search(chain, *a))
     compiled = weld_arcs(program, program, 0.01)
+    assert chains and all(chain.compiled for chain in chains)  # the compiled loops' windows
     assert any(r.lines_replaced > 400 for r in compiled[1])  # long enough to be measured in pieces
     monkeypatch.setattr(arc_search, "compiled_kernels", lambda: None)
     monkeypatch.setattr(hausdorff_module, "compiled_kernels", lambda: None)
