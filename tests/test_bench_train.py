@@ -21,6 +21,7 @@ def test_a_linear_layers_step_counts_its_two_products():
 
 def test_models_get_their_share_of_the_peak_and_a_fused_recurrence_is_not_under_counted():
     models = compose(REPO, []).models
+    threads = torch.get_num_threads()
     result = measure({"mlp": models.mlp, "lstm": models.lstm, "rule": models.rule}, batch=8, threads=1, repeats=2,
                      stage_seconds={"train@mlp": 10.0, "train@lstm": 20.0})
     assert set(result["models"]) == {"mlp", "lstm"}  # the exact rule does not train
@@ -30,3 +31,4 @@ def test_models_get_their_share_of_the_peak_and_a_fused_recurrence_is_not_under_
     assert mlp["train_stage_s_at_gemm_peak"] == pytest.approx(10.0 * mlp["share_of_gemm_peak"])
     assert lstm["step_flops"] is None and lstm["uncounted"] == ["LSTM"] and lstm["train_stage_s_at_gemm_peak"] is None
     assert result["counted_train_stages_s"] == 10.0
+    assert torch.get_num_threads() == threads  # the caller's thread count is left as it was

@@ -75,7 +75,15 @@ def measure(models: dict, batch: int, threads: int, repeats: int, stage_seconds:
     """:func:`step_figures` of every learned model of ``models`` (name: model config), each beside the
     matrix-product peak measured here, and where ``stage_seconds`` has ``train@<name>``, the stage's
     seconds at that peak."""
+    before = torch.get_num_threads()
     torch.set_num_threads(threads)
+    try:
+        return _measure(models, batch, threads, repeats, stage_seconds)
+    finally:
+        torch.set_num_threads(before)  # a caller's own thread count is left as it was
+
+
+def _measure(models: dict, batch: int, threads: int, repeats: int, stage_seconds: dict | None) -> dict:
     torch.manual_seed(0)
     result = {"threads": threads, "batch": batch, "models": {}}
     for name, config in models.items():

@@ -27,8 +27,8 @@ import numpy as np
 
 FIRST_WINDOW = 16      # ends a start measures at first (the window doubles while arcs fit near its end)
 LAST_WINDOW = 256      # the longest window (NumPy: a batch holds some twenty (ends x points) arrays)
-COMPILED_LAST_WINDOW = 1024  # ... where the screen runs in compiled loops, one candidate at a time: fewer windows
-                             # a long arc (1,000,000-line arcs-only run: 14.8 s instead of 17.7, the same bytes)
+COMPILED_LAST_WINDOW = 1024  # ... where the screen runs in compiled loops, one candidate at a time (no such
+                             # arrays): fewer windows a long arc (the time: make bench, reports/bench/arcs.json)
 GALLOP = 64            # from windows this long on, a window's last ends are measured first: where an arc fits
                        # there, its other ends are taken to fit (the arcs chosen are measured again one by one)
 SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks

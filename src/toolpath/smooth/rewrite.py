@@ -161,7 +161,7 @@ def controller_state_read(program: Program) -> tuple[int, str] | None:
     """The first line (and the word) that reads a parameter only the controller knows, or None: from there
     on the reader's path is not the controller's, so nothing there or after it is smoothed."""
     if isinstance(program.lines, Lines) and "#" not in program.lines.text:
-        return None  # one scan of the text: most programs read no parameter (a million lines: 0.7 s less)
+        return None  # one scan of the text, not a Python pass over every line: most programs read no parameter
     for number, raw in enumerate(program.lines, start=1):
         if "#" not in raw:
             continue
