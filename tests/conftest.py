@@ -68,12 +68,13 @@ def trained_mlp():
     return clf, X, y
 
 
-LONG_GROUPS = ("pipeline", "queue")  # the end-to-end runs: minutes each
+LONG_GROUPS = ("pipeline", "queue", "sweep")  # the end-to-end runs and the sweeps: minutes each
 
 
 def pytest_collection_modifyitems(config, items):
-    """Run the end-to-end groups first: `make test`'s two workers each start with one and share the unit
-    tests after, instead of one worker reaching a several-minute test last."""
+    """Run the long groups first: `make test`'s two workers each start with one (the second takes the
+    sweeps after the queue) and share the unit tests after, instead of one worker reaching a several-minute
+    group last."""
     def rank(item):
         marker = item.get_closest_marker("xdist_group")
         group = (marker.args[0] if marker and marker.args else marker.kwargs.get("name")) if marker else None

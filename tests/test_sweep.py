@@ -23,6 +23,8 @@ from toolpath.sweep import overrides, parse_space
 from toolpath.sweep.__main__ import _shares
 from toolpath.sweep.__main__ import main as sweep_main
 
+# one worker: the module's smoke windows are generated once, and the group starts early (conftest.LONG_GROUPS)
+pytestmark = pytest.mark.xdist_group("sweep")
 SMOKE = ["+experiment=smoke"]
 # the smoke windows train in a second; a short epoch range keeps the trials short too
 SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.replicates=1", "sweep.space.epochs.low=1",

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, wait
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -69,12 +69,11 @@ def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
             with ProcessPoolExecutor(len(shares), mp_context=get_context("spawn")) as pool:
                 # the launch's first worker takes the enqueued default trial, the others wait for that
                 futures = [pool.submit(run_trials, spec, n, first + k, (), k == 0) for k, n in enumerate(shares)]
-                while not all(f.done() for f in futures):
+                while wait(futures, timeout=2.0).not_done:  # back as soon as the last worker ends
                     done = study.get_trials(states=finished)
                     values = [t.value for t in done if t.value is not None]
                     bar.update(task, completed=len(done) - start,
                                best=f"best {max(values):.4f}" if values else "")
-                    time.sleep(2.0)
                 for f in futures:
                     f.result()  # a worker's error surfaces here
         bar.update(task, completed=sum(shares))
