@@ -176,7 +176,7 @@ def test_pieced_measure_of_paths_passing_near_themselves_equals_the_whole_measur
 def test_compiled_pieced_loops_on_hand_cases():
     """The compiled loops alone: a chord cutting a square corner is 2.5 from the corner path (its middle to
     either leg) and the corner's vertex 5 / sqrt(2) from the chord; a line shifted by 0.3 is 0.3 off both ways
-    whatever the pieces."""
+    whatever the pieces; a line over a sawtooth is 1 / sqrt(2) from it, and the sawtooth 1 from the line."""
     kernels = hausdorff_module.compiled_kernels()
     if kernels is None:
         pytest.skip("numba is not installed (the fast extra): the compiled loops are not there to test")
@@ -189,6 +189,14 @@ def test_compiled_pieced_loops_on_hand_cases():
     for piece in (1, 3, 32):
         assert kernels.directed_pieced(line, shifted, piece) == pytest.approx(0.3)
         assert kernels.directed_pieced(shifted, line, piece) == pytest.approx(0.3)
+    # a coarse line over a fine sawtooth (peaks on it at even x, valleys 1 below at odd x): each coarse segment
+    # runs past four teeth, bounded by their crossings alone; between two peaks the line's farthest point
+    # is 1 / sqrt(2) from either flank, and the valleys are 1 from the line
+    saw = np.c_[np.arange(9.0), -(np.arange(9) % 2.0)]
+    coarse = np.array([[0.0, 0.0], [4.0, 0.0], [8.0, 0.0]])
+    for piece in (1, 2, 32):
+        assert kernels.directed_pieced(coarse, saw, piece) == pytest.approx(1.0 / np.sqrt(2.0))
+        assert kernels.directed_pieced(saw, coarse, piece) == pytest.approx(1.0)
     # asked for (a caller with many short pairs), the loops measure short pairs too: the whole measure's figure
     rng = np.random.default_rng(2)
     walk = np.cumsum(rng.normal(0.0, 1.0, (60, 2)), axis=0)

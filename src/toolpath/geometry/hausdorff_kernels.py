@@ -18,6 +18,7 @@ from numba import njit
 
 _SLACK = 1e-12  # relative: a bound compared with a measured distance, as the NumPy path compares them
 _GROUP = 32  # segments of B per bounding box when looking for a piece's stretch
+_RUN = 8  # longest run of B between the segments nearest to an A segment's ends that is bounded on its own
 
 
 @njit(cache=True)
@@ -111,8 +112,8 @@ def _directed_piece(a, start, stop, b, lo, hi, best, at):  # pragma: no cover - 
     """``max(best, h(A', B'))`` for the segments ``start .. stop - 1`` of ``a`` and the segments ``lo .. hi - 1``
     of ``b`` (a stretch holding every segment that can be nearest to a point of the piece), ``best`` at least
     the largest distance of the piece's points; ``at[p]``: a segment of B nearest to point p of A."""
-    near = np.empty(hi - lo, np.int64)
-    larger = np.empty(hi - lo)  # per segment in ``near``: its larger distance at the A segment's ends
+    near = np.empty(max(hi - lo, _RUN), np.int64)  # a run below may lie partly outside the stretch
+    larger = np.empty(max(hi - lo, _RUN))  # per segment in ``near``: its larger distance at the A segment's ends
     ends = np.empty((hi - lo, 2))  # per segment of the stretch: its distances at the A segment's ends
     qj, qk, roots = np.empty(3), np.empty(3), np.empty(2)
     for i in range(start, stop):
@@ -125,6 +126,20 @@ def _directed_piece(a, start, stop, b, lo, hi, best, at):  # pragma: no cover - 
             upper = min(upper, max(d0, d1))
         if not upper > best * (1.0 + _SLACK):
             continue
+        # then the exact maximum of the distance to the run of B from one end's nearest segment to the other's
+        # alone (f is at most that): a segment longer than B's runs past a few of them, and their crossings
+        # decide it without the whole stretch
+        first, last = min(at[i], at[i + 1]), max(at[i], at[i + 1])
+        if last - first < _RUN:
+            count = 0
+            for j in range(first, last + 1):
+                d0 = _segment_distance(a0x, a0y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+                d1 = _segment_distance(a1x, a1y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+                near[count], larger[count] = j, max(d0, d1)
+                count += 1
+            if not _crossings(a0x, a0y, a1x, a1y, b, near, larger, count, best, qj, qk, roots) > \
+                    best * (1.0 + _SLACK):
+                continue
         for j in range(lo, hi):
             d0 = _segment_distance(a0x, a0y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
             d1 = _segment_distance(a1x, a1y, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
@@ -144,32 +159,41 @@ def _directed_piece(a, start, stop, b, lo, hi, best, at):  # pragma: no cover - 
             if gap <= upper * (1.0 + _SLACK) + 1e-300:
                 near[count], larger[count] = j, max(d0, d1)
                 count += 1
-        ux, uy = a1x - a0x, a1y - a0y
-        for x in range(count):
-            j = near[x]
-            for y in range(x + 1, count):
-                k = near[y]
-                if not min(larger[x], larger[y]) > best:
-                    continue  # min(d_j, d_k) is at most either's larger end (convex): never above the best
-                for fj in range(3):
-                    _quadratic(a0x, a0y, ux, uy, fj, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1], qj)
-                    for fk in range(3):
-                        _quadratic(a0x, a0y, ux, uy, fk, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1], qk)
-                        for r in range(_roots(qj[0] - qk[0], qj[1] - qk[1], qj[2] - qk[2], roots)):
-                            px, py = a0x + roots[r] * ux, a0y + roots[r] * uy
-                            # f there is at most d_j: no larger maximum unless d_j is above the best; and a
-                            # root is a crossing of the two segments' distances only where they are equal
-                            dj = _segment_distance(px, py, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
-                            if not dj > best:
-                                continue
-                            dk = _segment_distance(px, py, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1])
-                            if abs(dj - dk) > 1e-9 * (1.0 + dj):
-                                continue
-                            f = np.inf
-                            for z in range(count):
-                                w = near[z]
-                                f = min(f, _segment_distance(px, py, b[w, 0], b[w, 1], b[w + 1, 0], b[w + 1, 1]))
-                            best = max(best, f)
+        best = _crossings(a0x, a0y, a1x, a1y, b, near, larger, count, best, qj, qk, roots)
+    return best
+
+
+@njit(cache=True)
+def _crossings(a0x, a0y, a1x, a1y, b, near, larger, count, best, qj, qk, roots):  # pragma: no cover - compiled
+    """``max(best, f)`` over the crossings along a0 -> a1 of the distances to the segments ``near[:count]`` of
+    ``b`` (``f`` the least of them; ``larger``: each one's larger distance at the segment's ends), skipping what
+    cannot exceed ``best``: the exact maximum of ``f`` wherever it exceeds ``best``."""
+    ux, uy = a1x - a0x, a1y - a0y
+    for x in range(count):
+        j = near[x]
+        for y in range(x + 1, count):
+            k = near[y]
+            if not min(larger[x], larger[y]) > best:
+                continue  # min(d_j, d_k) is at most either's larger end (convex): never above the best
+            for fj in range(3):
+                _quadratic(a0x, a0y, ux, uy, fj, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1], qj)
+                for fk in range(3):
+                    _quadratic(a0x, a0y, ux, uy, fk, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1], qk)
+                    for r in range(_roots(qj[0] - qk[0], qj[1] - qk[1], qj[2] - qk[2], roots)):
+                        px, py = a0x + roots[r] * ux, a0y + roots[r] * uy
+                        # f there is at most d_j: no larger maximum unless d_j is above the best; and a
+                        # root is a crossing of the two segments' distances only where they are equal
+                        dj = _segment_distance(px, py, b[j, 0], b[j, 1], b[j + 1, 0], b[j + 1, 1])
+                        if not dj > best:
+                            continue
+                        dk = _segment_distance(px, py, b[k, 0], b[k, 1], b[k + 1, 0], b[k + 1, 1])
+                        if abs(dj - dk) > 1e-9 * (1.0 + dj):
+                            continue
+                        f = np.inf
+                        for z in range(count):
+                            w = near[z]
+                            f = min(f, _segment_distance(px, py, b[w, 0], b[w, 1], b[w + 1, 0], b[w + 1, 1]))
+                        best = max(best, f)
     return best
 
 
