@@ -45,8 +45,9 @@ def _shares(total: int, workers: int) -> list[int]:
 
 
 def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
-    """Run the shares (one process each when there are several) under a progress bar over the study;
-    each process samples with its own seed (:func:`toolpath.sweep.study.claim_workers`)."""
+    """Run the shares, the first in this process and each other in a spawned one (a process less to start
+    and import torch in), under a progress bar over the study; each process samples with its own seed
+    (:func:`toolpath.sweep.study.claim_workers`)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from toolpath.sweep.study import claim_workers, run_trials
@@ -59,23 +60,22 @@ def _run(spec: SweepSpec, study: optuna.Study, shares: list[int]) -> None:
                TextColumn("{task.fields[best]}"))
     with Progress(*columns) as bar:
         task = bar.add_task("trials", total=sum(shares), best="")
-        if len(shares) == 1:  # in this process: deterministic for a seed
-            def advance(study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
-                bar.update(task, advance=1, best=f"best {study.best_value:.4f}"
-                           if study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)) else "")
 
-            run_trials(spec, shares[0], worker=first, callbacks=[advance])
-        else:
-            with ProcessPoolExecutor(len(shares), mp_context=get_context("spawn")) as pool:
-                # the launch's first worker takes the enqueued default trial, the others wait for that
-                futures = [pool.submit(run_trials, spec, n, first + k, (), k == 0) for k, n in enumerate(shares)]
-                while wait(futures, timeout=2.0).not_done:  # back as soon as the last worker ends
-                    done = study.get_trials(states=finished)
-                    values = [t.value for t in done if t.value is not None]
-                    bar.update(task, completed=len(done) - start,
-                               best=f"best {max(values):.4f}" if values else "")
-                for f in futures:
-                    f.result()  # a worker's error surfaces here
+        def refresh(*_: object) -> None:  # from the study, which every process of the launch writes
+            done = study.get_trials(states=finished)
+            values = [t.value for t in done if t.value is not None]
+            bar.update(task, completed=len(done) - start, best=f"best {max(values):.4f}" if values else "")
+
+        # a spawned worker waits for this process to take the enqueued default trial; with one share alone the
+        # launch is deterministic for a seed
+        with ProcessPoolExecutor(max(1, len(shares) - 1), mp_context=get_context("spawn")) as pool:
+            futures = [pool.submit(run_trials, spec, n, first + k, (), False)
+                       for k, n in enumerate(shares[1:], start=1)]
+            run_trials(spec, shares[0], worker=first, callbacks=[refresh])
+            while wait(futures, timeout=2.0).not_done:  # back as soon as the last worker ends
+                refresh()
+            for f in futures:
+                f.result()  # a worker's error surfaces here
         bar.update(task, completed=sum(shares))
 
 
