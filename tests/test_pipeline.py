@@ -53,7 +53,7 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
 
 
 @pytest.mark.xdist_group("pipeline")
-def test_dvc_repro_on_smoke_profile(tmp_path):
+def test_dvc_repro_on_smoke_profile(tmp_path, monkeypatch):
     work, env, dvc = smoke_copy(tmp_path)
     timing = tmp_path / "pipeline_time.json"  # `make repro`'s warm server and stage timer around `dvc repro`
     run([sys.executable, "-m", "toolpath.pipeline.warm", "--", sys.executable, "-m", "toolpath.pipeline.stage_times",
@@ -144,6 +144,8 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     assert "reports/metrics/sequence.json" in shown
     assert "reports/metrics/corner.json" in shown and "reports/metrics/feedrate/gear.json" in shown
     assert_mlflow_store_reads_as_the_pipeline(work, env, json.loads(timing.read_text()))
+    assert_train_outputs_in_detail(work, env)
+    first_optimize = assert_optimize_outputs_in_detail(work, env)
     # a stage run again in its own process, as a plain `dvc repro` runs it, writes the bytes its warm run wrote
     run([sys.executable, "-m", "toolpath.stages.generate", "--shape", "maple_leaf"], work, env)
     assert "up to date" in run(dvc + ["repro"], work, env)
@@ -177,6 +179,85 @@ def test_dvc_repro_on_smoke_profile(tmp_path):
     # change too; compare follows through its deps)
     config.compose(["+experiment=smoke", "train.protocol.lr.mlp=0.002"], root=work)
     assert set(json.loads(run(dvc + ["status", "--json"], work, env))) == {"train@mlp", "qat@mlp", "report"}
+    # the optimize stage (seeded NACOA and mealpy searches) again, in this process: its warm run's bytes
+    from toolpath.stages import optimize
+
+    monkeypatch.chdir(work)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", env["MLFLOW_TRACKING_URI"])
+    monkeypatch.setenv("DVC_ROOT", str(work))
+    optimize.main(["--shape", "gear"])
+    assert (work / "reports/metrics/optimize/gear.json").read_bytes() == first_optimize
+
+
+def assert_train_outputs_in_detail(work: Path, env: dict) -> None:
+    """The train stage's files for one model and shape: both splits' metrics, the seeds' figures and interval
+    over test programs, the curves, checkpoints and saved predictions, one MLflow run per model and shape
+    under the stage's with its epochs; the exact rule right everywhere, trained once."""
+    metrics = json.loads((work / "reports/metrics/train/mlp/maple_leaf.json").read_text())
+    for split in ("val", "test"):
+        assert {"accuracy", "loss", "precision", "recall", "f1", "auc", "per_class", "confusion"} <= set(metrics[split])
+    assert metrics["epochs_run"] == 2
+    seeds = metrics["replicates"]  # the smoke profile's 2 seeds, replicate 0's figure among them
+    assert seeds["replicates"] == 2 and len(set(seeds["seeds"])) == 2
+    per_seed = seeds["test"]["accuracy"]["per_seed"]
+    assert per_seed["seed0"] == metrics["test"]["accuracy"]
+    kept = [per_seed[f"seed{k}"] for k in range(2) if k not in seeds["degenerate_replicates"]]
+    assert seeds["test"]["accuracy"]["mean"] == (pytest.approx(np.mean(kept)) if kept else None)
+    windows = np.load(work / "data/windows/maple_leaf.npz")
+    test_programs = len(np.unique(windows["program"][windows["split"] == 2]))
+    test_windows = int((windows["split"] == 2).sum())
+    ci = metrics["test"]["accuracy_ci"]  # over the test programs, around the accuracy
+    assert ci["programs"] == test_programs and ci["low"] <= metrics["test"]["accuracy"] <= ci["high"]
+    assert seeds["accuracy_ci"]["programs"] == test_programs
+    curves = (work / "reports/plots/train/mlp/maple_leaf.csv").read_text().splitlines()
+    assert curves[0] == "epoch,lr,train_loss,train_accuracy,val_loss,val_accuracy" and len(curves) == 3
+    assert {p.name for p in (work / "models/fp32/mlp").iterdir()} == \
+        {f"{s}.{ext}" for s in SHAPES for ext in ("pt", "test.npz")}
+    saved = np.load(work / "models/fp32/mlp/maple_leaf.test.npz")  # every seed's test predictions
+    assert saved["predicted"].shape == (2, test_windows) and saved["degenerate"].shape == (2,)
+    client = mlflow.MlflowClient(tracking_uri=env["MLFLOW_TRACKING_URI"])
+    runs = client.search_runs([client.get_experiment_by_name("cnc-curvature").experiment_id], max_results=1000)
+    [run] = [r for r in runs if r.info.run_name == "train@mlp-maple_leaf"]
+    [stage] = [r for r in runs if r.info.run_name == "train@mlp"]
+    assert run.data.tags["mlflow.parentRunId"] == stage.info.run_id  # a child of the stage's run, per model
+    steps = [m.step for m in client.get_metric_history(run.info.run_id, "val_accuracy")]
+    assert steps == [1, 2] and run.data.metrics["test.accuracy"] == metrics["test"]["accuracy"]
+    assert "confusion_test.json" in [a.path for a in client.list_artifacts(run.info.run_id)]
+    rule = json.loads((work / "reports/metrics/train/rule/maple_leaf.json").read_text())
+    assert rule["test"]["accuracy"] == 1.0 and rule["epochs_run"] == 0  # the labels are the rule's
+    assert rule["replicates"]["replicates"] == 1  # it learns nothing: one run
+
+
+def assert_optimize_outputs_in_detail(work: Path, env: dict) -> bytes:
+    """The optimize stage's files for gear (rows, summary, curves, smoothed windows, timing, MLflow metrics);
+    returns the summary's bytes."""
+    summary_path = work / "reports/metrics/optimize/gear.json"
+    first = summary_path.read_bytes()
+    summary = json.loads(first)
+    with (work / "reports/metrics/optimize/gear.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == summary["sample"]["runs"] > 0
+    methods = {"mean_filter", "bezier", "nacoa", "nacoa_matched", "coa", "pso"}  # the smoke profile's methods
+    assert set(summary["methods"]["tube"]["plain"]) == methods
+    assert set(summary["methods"]["tube"]["shifted"]) == {"coa", "pso"}  # mealpy ones, both encodings, tube only
+    assert set(summary["methods"]["none"]["plain"]) == {"mean_filter", "bezier", "nacoa"}
+    assert summary["dispatch"]["tube"]["1"]["method"] == "none"
+    smoothed_windows = sum(summary["sample"]["per_category"].get(c, 0) for c in ("2", "3", "4"))  # all but category 1
+    assert summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["windows"] == smoothed_windows > 0
+    curves = (work / "reports/plots/optimize/gear.csv").read_text().splitlines()
+    assert curves[0].split(",")[0] == "budget_fraction" and "nacoa" in curves[0]
+    smoothed = np.load(work / "data/smoothed/gear.npz")
+    assert smoothed["points"].shape == (len(rows), 50, 2)
+    timing = json.loads((work / "reports/timing/optimize/gear.json").read_text())
+    assert timing["tube"]["plain"]["nacoa"]["complexity"] == "O(n^2) + O(t p d)"
+    client = mlflow.MlflowClient(tracking_uri=env["MLFLOW_TRACKING_URI"])
+    runs = client.search_runs([client.get_experiment_by_name("cnc-curvature").experiment_id], max_results=1000)
+    [run] = [r for r in runs if r.info.run_name == "optimize@gear"]
+    assert run.data.metrics["tube.plain.nacoa.all_categories_reduction_pct"] == pytest.approx(
+        summary["methods"]["tube"]["plain"]["nacoa"]["mean_reduction_pct"])
+    assert run.data.metrics["cat2_4_reduction_pct.tube.nacoa"] == pytest.approx(
+        summary["paper_metric"]["tube"]["methods"]["nacoa"]["categories_2_4"]["mean_reduction_pct"])
+    return first
 
 
 def assert_mlflow_store_reads_as_the_pipeline(work: Path, env: dict, timing: dict) -> None:
