@@ -180,6 +180,7 @@ def test_dvc_repro_on_smoke_profile(tmp_path, monkeypatch):
     config.compose(["+experiment=smoke", "train.protocol.lr.mlp=0.002"], root=work)
     assert set(json.loads(run(dvc + ["status", "--json"], work, env))) == {"train@mlp", "qat@mlp", "report"}
     # the optimize stage (seeded NACOA and mealpy searches) again, in this process: its warm run's bytes
+    # (the optimize stage reads the seed and its own section only, which no composition above changed)
     from toolpath.stages import optimize
 
     monkeypatch.chdir(work)
@@ -187,6 +188,13 @@ def test_dvc_repro_on_smoke_profile(tmp_path, monkeypatch):
     monkeypatch.setenv("DVC_ROOT", str(work))
     optimize.main(["--shape", "gear"])
     assert (work / "reports/metrics/optimize/gear.json").read_bytes() == first_optimize
+    # and the MLP's training, on the composition the pipeline ran: its metrics to the byte
+    from toolpath.stages import train
+
+    first_train = (work / "reports/metrics/train/mlp/maple_leaf.json").read_bytes()
+    config.compose(["+experiment=smoke"], root=work)
+    train.main(["--model", "mlp"])
+    assert (work / "reports/metrics/train/mlp/maple_leaf.json").read_bytes() == first_train
 
 
 def assert_train_outputs_in_detail(work: Path, env: dict) -> None:
