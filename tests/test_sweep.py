@@ -205,6 +205,20 @@ def test_bad_input_gives_a_message_and_exit_2(sweep_dir, capsys):
     assert "optuna.db: not a usable Optuna study storage" in err and "Traceback" not in err
 
 
+def test_ctrl_c_ends_with_one_line_and_exit_130(sweep_dir, capsys, monkeypatch):
+    """Ctrl-C during the trials: one line, no traceback (the study keeps what finished; a resumed study
+    runs the trials still missing, as test_smoke_sweep_... shows)."""
+    from toolpath.sweep import study as study_module
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(study_module, "run_trials", interrupted)
+    assert sweep_main([*SWEEP, "sweep.n_trials=2", "sweep.workers=1"]) == 130
+    err = capsys.readouterr().err
+    assert "sweep stopped: every finished trial is kept" in err and "Traceback" not in err
+
+
 POSTGRES = os.environ.get("TOOLPATH_TEST_POSTGRES")
 
 

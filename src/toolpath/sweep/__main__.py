@@ -118,6 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: the study keeps what finished, and the same command resumes it
+        print("sweep stopped: every finished trial is kept in the study; run the same command again to go on",
+              file=sys.stderr)
+        return 130
     except SystemExit as exc:  # toolpath.pipeline.schema.ConfigError: one line naming the key
         print(f"error: {exc}", file=sys.stderr)
         return 2
