@@ -210,13 +210,31 @@ def test_ctrl_c_ends_with_one_line_and_exit_130(sweep_dir, capsys, monkeypatch):
     runs the trials still missing, as test_smoke_sweep_... shows)."""
     from toolpath.sweep import study as study_module
 
-    def interrupted(*args, **kwargs):
+    real = study_module.run_trials
+
+    def interrupted(spec, n_trials, *args, **kwargs):  # the worker sets up, then Ctrl-C before its first trial
+        real(spec, 0, *args, **kwargs)
         raise KeyboardInterrupt
 
     monkeypatch.setattr(study_module, "run_trials", interrupted)
     assert sweep_main([*SWEEP, "sweep.n_trials=2", "sweep.workers=1"]) == 130
     err = capsys.readouterr().err
     assert "sweep stopped: every finished trial is kept" in err and "Traceback" not in err
+    # a trial the Ctrl-C stops is logged by Optuna as failed: the worker set its handlers to keep the line
+    # and drop the traceback
+    import logging
+
+    handlers = logging.getLogger("optuna").handlers
+    assert handlers
+    for handler in handlers:
+        for error, shown in ((KeyboardInterrupt(), False), (ValueError("a real failure"), True)):
+            try:
+                raise error
+            except BaseException:
+                record = logging.getLogger("optuna.study._optimize").makeRecord(
+                    "optuna.study._optimize", logging.WARNING, __file__, 1, "Trial 4 failed", (), sys.exc_info())
+            assert handler.filter(record)
+            assert ("Traceback" in handler.format(record)) == shown and "Trial 4 failed" in handler.format(record)
 
 
 POSTGRES = os.environ.get("TOOLPATH_TEST_POSTGRES")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import logging
 import os
 import time
 from collections.abc import Iterator, Sequence
@@ -232,12 +233,30 @@ def _wait_for_parent(study: optuna.Study) -> str:
     return study.user_attrs[PARENT_ATTR]
 
 
+class _InterruptWithoutTraceback(logging.Filter):
+    """Keeps a log line whose exception is a KeyboardInterrupt, without its traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.exc_info and isinstance(record.exc_info[1], KeyboardInterrupt):
+            record.exc_info, record.exc_text = None, None
+        return True
+
+
+def quiet_interrupts() -> None:
+    """Optuna logs a trial stopped by Ctrl-C as failed, with the KeyboardInterrupt's traceback: its handlers
+    keep the line (which trial, which parameters) and drop the traceback, as the sweep's own Ctrl-C line does."""
+    for handler in logging.getLogger("optuna").handlers:
+        if not any(isinstance(f, _InterruptWithoutTraceback) for f in handler.filters):
+            handler.addFilter(_InterruptWithoutTraceback())
+
+
 def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[Any] = (),
                takes_enqueued: bool = True) -> int:
     """Run exactly ``n_trials`` trials of the study in this process; returns how many completed.
     ``callbacks`` are Optuna's (called with the study and each finished trial); ``takes_enqueued``:
     False for all but one of the processes of a launch (:func:`open_study`)."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    quiet_interrupts()
     os.environ.setdefault("DVC_ROOT", str(spec.root))  # the MLflow artefact root, as in the stages
     study = open_study(spec, worker, takes_enqueued)
     parent = study.user_attrs[PARENT_ATTR]
