@@ -603,3 +603,29 @@ def test_the_compiled_screen_fits_the_ends_the_numpy_screen_fits(seed, monkeypat
     assert 0 < plain_fits.sum() < valid.sum()  # some ends fit, some do not
     assert np.array_equal(fits, plain_fits)
     assert np.allclose(centres[fits], plain_centres[fits], rtol=0.0, atol=1e-9)
+
+
+def test_a_probe_short_of_the_longest_arc_measures_the_window_last_end_alone(monkeypatch):
+    """Inside a long arc a window's probe costs one end (its last, which fits) until the longest arc's window,
+    whose last ends are where arcs end and are all measured: the same arcs as measuring every end."""
+    from toolpath.smooth import arc_search
+
+    t = np.linspace(0.0, 1.5, 1201)
+    xy = np.round(np.column_stack([100 * np.cos(t), 100 * np.sin(t)]), 3)
+    n = len(xy)
+    chain = arc_search.Chain(xy, xy, xy, np.ones(n), np.full(n, 3), np.ones(n))
+    measured_ends = []
+    screen = arc_search._measure_ends
+
+    def counting(chain, starts, j, valid, *args):
+        measured_ends.extend(j[0][valid[0]].tolist() if starts[0] == 0 else [])
+        return screen(chain, starts, j, valid, *args)
+
+    monkeypatch.setattr(arc_search, "_measure_ends", counting)
+    probed = arc_search.fewest_blocks(chain, n - 1, 0.01, 2, 1000, 1e4, 8)
+    # from the first point (its first end: 2) the windows doubling up to 256 ends: those ending at 113, 241,
+    # 497 and 753 probe one end each; the longest arc's window (ending at 1000) probes its last nine
+    assert [j for j in measured_ends if j >= arc_search.GALLOP] == [113, 241, 497, 753, *range(992, 1001)]
+    monkeypatch.setattr(arc_search, "GALLOP", 10 ** 6)
+    assert [(i, q) for i, q, _ in probed] == [(i, q) for i, q, _ in arc_search.fewest_blocks(
+        chain, n - 1, 0.01, 2, 1000, 1e4, 8)]

@@ -29,7 +29,7 @@ FIRST_WINDOW = 16      # ends a start measures at first (the window doubles whil
 LAST_WINDOW = 256      # the longest window (NumPy: a batch holds some twenty (ends x points) arrays)
 COMPILED_LAST_WINDOW = 1024  # ... where the screen runs in compiled loops, one candidate at a time (no such
                              # arrays): fewer windows a long arc (the time: make bench, reports/bench/arcs.json)
-GALLOP = 64            # from windows this long on, a window's last ends are measured first: where an arc fits
+GALLOP = 64            # from windows this long on, a window's last end(s) are measured first: where an arc fits
                        # there, its other ends are taken to fit (the arcs chosen are measured again one by one)
 SKIP_GAP = 8           # a start is measured unless a point this far on (or up to twice) has no more blocks
 CELLS = 1 << 18        # ends x points per batch: about 2 MB an array
@@ -160,7 +160,8 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     closed end among its last goes on.  A window costs its open ends times its last end's length, so a
     start inside a long arc, whose arcs end just past ``known``, measures a few ends and not a block of
     them; windows stop growing at ``LAST_WINDOW`` ends (``COMPILED_LAST_WINDOW`` in compiled loops).  From
-    windows of ``GALLOP`` ends on, a window's last ends are measured first; where an arc fits there, the
+    windows of ``GALLOP`` ends on, a window's last end is measured first (its last ``lookahead`` ends where
+    that one does not fit, or where the window ends at the longest arc allowed); where an arc fits there, the
     window's other open ends are taken to fit (with no centre: the caller fits those afresh), else they are
     measured in the next round."""
     limit = np.minimum(max_segments, end - chunk)  # the last end (j) each start may reach
@@ -171,13 +172,21 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
     longest = COMPILED_LAST_WINDOW if chain.compiled and compiled_kernels() is not None else LAST_WINDOW
     todo = first <= limit
     body_next = np.zeros(len(chunk), bool)  # a probed window whose last ends did not fit: its body is measured
+    tail_next = np.zeros(len(chunk), bool)  # a probed window whose last end did not fit: its last ends next
     while todo.any():
         rows = np.flatnonzero(todo)
         last = np.minimum(first + width - 1, limit)
         tail_from = np.maximum(last - lookahead, first)  # a window's last ends
         probe = (width >= GALLOP) & ~body_next
+        # a probe short of the longest arc measures the window's last end alone first (where the arc goes on,
+        # the common case inside a long one, that one end is the probe's whole cost), then, where it does not
+        # fit, its last ends (at the longest arc those are where arcs end: they are measured)
+        alone = probe & ~tail_next & (last < limit) & open_end[chunk + last]
         ends = {}
         for r in rows:
+            if alone[r]:
+                ends[int(r)] = last[r:r + 1]
+                continue
             span = np.arange(tail_from[r] if probe[r] else first[r],
                              (tail_from[r] - 1 if body_next[r] else last[r]) + 1)
             ends[int(r)] = span[open_end[chunk[r] + span]]
@@ -185,21 +194,33 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
                       min_segments, max_radius)
         advance = np.zeros(len(chunk), bool)
         for r in rows:
+            if alone[r] and not fits[r][last[r] - 1]:
+                tail_next[r] = True  # the last end alone did not fit: the window's last ends next
+                continue
             tail = np.arange(tail_from[r], last[r] + 1)
             tail_open, tail_fits = open_end[chunk[r] + tail], bool(fits[r][tail - 1].any())
             if probe[r] and not (tail_open.any() and tail_fits):
-                body_next[r] = True  # the arcs end inside the window (or nothing there could tell): measure it
+                body_next[r], tail_next[r] = True, False  # the arcs end inside the window (or nothing could tell)
                 continue
             if probe[r]:  # an arc fits at the window's end: its other open ends are taken to fit too
-                body = np.arange(first[r], tail_from[r])
+                body = np.arange(first[r], last[r] if alone[r] else tail_from[r])
                 body = body[open_end[chunk[r] + body]]
                 fits[r][body - 1], centres[r][body - 1] = True, np.nan
-            body_next[r], advance[r] = False, True
+            body_next[r], tail_next[r], advance[r] = False, False, True
             todo[r] = last[r] < limit[r] and (not tail_open.all() or tail_fits)
         first = np.where(advance, last + 1, first)
         width = np.where(advance, np.minimum(2 * width, longest), width)
     for k, i in enumerate(chunk.tolist()):
         yield i, fits[k], centres[k]
+
+
+def centre_of(chain: Chain, i: int, q: int, end: int, budget: float, min_segments: int,
+              max_radius: float) -> np.ndarray | None:
+    """The centre (mm) of the arc from point ``i`` to ``q`` of ``chain`` the screen finds within ``budget``
+    (for an end :func:`_measured` took to fit without measuring it), or None where none fits."""
+    fits, centre = _measure_ends(chain, np.array([i]), np.array([[q - i]]), np.ones((1, 1), bool), end, budget,
+                                 min_segments, max_radius)
+    return centre[0, 0] if fits[0, 0] else None
 
 
 def _measure_rows(chain: Chain, chunk: np.ndarray, rows: list, ends: dict, last: np.ndarray, fits: list,
