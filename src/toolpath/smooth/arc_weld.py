@@ -31,7 +31,7 @@ import numpy as np
 from toolpath.gcode.edit import program_coordinates
 from toolpath.gcode.errors import GCodeError
 from toolpath.gcode.lexer import tokenize
-from toolpath.gcode.reader import MM_PER_INCH, Program, ReaderOptions
+from toolpath.gcode.reader import MM_PER_INCH, Motion, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import pieced_hausdorff
@@ -278,8 +278,9 @@ def _verify(text: str, current: Program, original: Program, records: list[ArcRec
         return (start.snapshot() if start is not None else Reading(current.source, read_options)).read(program_text)
 
     final = read(text)
-    # the input's own arcs compared as chords of one fineness: read both at the check's (the caller's may differ)
-    before = read(text_of(current))
+    # the input's own arcs compared as chords of one fineness: read both at the check's (the caller's may
+    # differ); without arcs (or NURBS) a chord tolerance changes nothing: ``current`` is that reading already
+    before = read(text_of(current)) if np.any(current.kinds == Motion.ARC) else current
     replaced = np.zeros(len(current.lines) + 1, bool)  # index = input line
     removed = np.zeros(len(current.lines) + 1, bool)
     for r in records:

@@ -327,9 +327,11 @@ def _weld(result, program, tolerance: float, start, paths: bool = True) -> None:
     from dataclasses import replace
 
     from toolpath.geometry.labels.windows import feed_runs
+    from toolpath.smooth.arc_runs import text_of
     from toolpath.smooth.arc_weld import weld_arcs
 
-    smoothed = start.snapshot().read(result.text)
+    # a part the smoothing left as it was is its own reading (a million-line part: a second read saved)
+    smoothed = program if result.text == text_of(program) else start.snapshot().read(result.text)
     text, arcs, lines, note, kept_as_lines = weld_arcs(smoothed, program, tolerance, start=start)
     result.text, result.arcs, result.arcs_note = text, arcs, note
     result.arcs_kept_as_lines = kept_as_lines
