@@ -629,3 +629,18 @@ def test_a_probe_short_of_the_longest_arc_measures_the_window_last_end_alone(mon
     monkeypatch.setattr(arc_search, "GALLOP", 10 ** 6)
     assert [(i, q) for i, q, _ in probed] == [(i, q) for i, q, _ in arc_search.fewest_blocks(
         chain, n - 1, 0.01, 2, 1000, 1e4, 8)]
+
+
+@pytest.mark.parametrize("comment", ["(plain ascii)", "(café, ü)"])
+def test_lines_holding_and_occurs_find_each_line_as_a_search_line_by_line_would(comment):
+    """The characters' lines found in one vectorised pass (ASCII text) or by a regex (any other) and a
+    pattern searched only in the lines the scanner did not read as plain G0 / G1 moves: line by line alike."""
+    from toolpath.smooth.arc_runs import _INVERSE_TIME, lines_holding, occurs
+
+    text = ("G21 G90\nG1 X1 Y1 F100\n" + comment + "\n/G1 X2\nG1 X3 ; done\nG1 X4 F200\n"
+            + "G1 X5 Y5\n" * 50 + "G1 X6 G 093 F2\nG0 X0\n")
+    program = read_text(text)
+    for chars in ("/(;", "Ff"):
+        by_line = [False] + [bool(re.search(f"[{re.escape(chars)}]", line)) for line in program.lines]
+        assert lines_holding(program, chars).tolist() == by_line
+    assert occurs(program, _INVERSE_TIME) and not occurs(read_text(text.replace("G 093", "G94")), _INVERSE_TIME)

@@ -15,11 +15,11 @@ from toolpath.gcode.program import Lines, Program
 from toolpath.geometry.labels.windows import feed_runs
 
 MOTION_CODES = {0.0, 1.0, 2.0, 3.0, 5.0, 5.1, 5.2, 33.0, 33.1, 73.0, 76.0}  # with G38.x and G80-G89
-_INVERSE_TIME = re.compile(r"G\s*0*93(?![\d.])", re.IGNORECASE)
+_INVERSE_TIME = re.compile(r"G[^\S\r\n]*0*93(?![\d.])", re.IGNORECASE)  # within a line (see occurs)
 # a line an arc may replace holds no block delete and no comment: a ``/`` line runs or not by the switch; a
 # comment may be a MSG or DEBUG the operator sees
-_NOT_BARE = re.compile(r"[/(;]")
-_LETTER_F = re.compile(r"[Ff]")
+_NOT_BARE = "/(;"
+_LETTER_F = "Ff"
 
 
 def weldable_runs(program: Program,
@@ -37,7 +37,7 @@ def weldable_runs(program: Program,
     stable = stable & ~program.states.blind  # where the reader read past a construct: never welded
     # an F word that repeats the feed in effect changes nothing a controller does (ArcWelder drops it too),
     # except in inverse time (G93), where F is each move's own time
-    inverse_time = bool(_INVERSE_TIME.search(text_of(program)))
+    inverse_time = occurs(program, _INVERSE_TIME)
     feed, absolute = program.states.feed, program.states.absolute
     feeds = feed_lines(program, movable)
     new_feed = feeds.copy()  # index = line
@@ -103,15 +103,33 @@ def last_point_of(program: Program, lines: np.ndarray) -> np.ndarray:
     return found
 
 
-def lines_holding(program: Program, pattern: re.Pattern) -> np.ndarray:
-    """Per line (index = line number, 0 unused): whether the pattern occurs in it (its ending included)."""
+def lines_holding(program: Program, chars: str) -> np.ndarray:
+    """Per line (index = line number, 0 unused): whether any of ``chars`` occurs in it (its ending included)."""
     lines = program.lines
     text = text_of(program)
     starts = lines.starts if isinstance(lines, Lines) else np.cumsum([0] + [len(raw) for raw in lines])
     found = np.zeros(len(lines) + 1, bool)
-    at = np.fromiter((m.start() for m in pattern.finditer(text)), np.int64)
+    if text.isascii():  # a byte per character: one vectorised pass per character (a regex takes ~10x as long)
+        codes = np.frombuffer(text.encode("ascii"), np.uint8)
+        hit = np.zeros(len(codes), bool)
+        for char in chars:
+            hit |= codes == ord(char)
+        at = np.flatnonzero(hit)
+    else:
+        at = np.fromiter((m.start() for m in re.finditer(f"[{re.escape(chars)}]", text)), np.int64)
     found[np.searchsorted(starts, at, side="right")] = True
     return found
+
+
+def occurs(program: Program, pattern: re.Pattern) -> bool:
+    """Whether ``pattern`` occurs in a line of the program, for a pattern no plain line can hold (the
+    scanner's G0 / G1 motion lines, ``program.plain``): only the other lines are searched, where they are
+    few (a CAM program's millions of motion lines are not)."""
+    others = None if program.plain is None else np.flatnonzero(~program.plain)
+    if others is None or len(others) > len(program.lines) // 4:  # (the pattern spans no line end: the same)
+        return bool(pattern.search(text_of(program)))
+    lines = program.lines
+    return any(pattern.search(lines[index]) for index in others.tolist())
 
 
 def feed_lines(program: Program, movable: np.ndarray) -> np.ndarray:

@@ -35,7 +35,7 @@ from toolpath.gcode.reader import MM_PER_INCH, Motion, Program, ReaderOptions
 from toolpath.gcode.reading import Reading
 from toolpath.gcode.writer import fmt
 from toolpath.geometry.hausdorff import pieced_hausdorff
-from toolpath.smooth.arc_runs import edited, last_point_of, sets_motion, text_of, weldable_runs
+from toolpath.smooth.arc_runs import edited, last_point_of, occurs, sets_motion, text_of, weldable_runs
 from toolpath.smooth.arc_search import Chain, fewest_blocks
 from toolpath.smooth.rewrite import decimals_of, line_decimals, switch_stable
 
@@ -46,8 +46,8 @@ MAX_SEGMENTS = 2000  # growth stops here: on a 20,000-line dense program 800 wro
 #                     16 (38 s), 5,000 wrote 10 (103 s); ArcWelder wrote 29 (12 of them its header)
 COMPILED_POINTS = 2_000  # chain points from which the screen and the check run in compiled loops (numba)
 MAX_RADIUS = 10_000.0  # mm: flatter than this a G1 is as good, and I/J lose precision
-_ABSOLUTE_CENTRES = re.compile(r"G\s*0*90\s*\.\s*1(?!\d)", re.IGNORECASE)
-_LEADING_N = re.compile(r"[ \t]*(?:[Nn][ \t]*\d+[ \t]*)?")
+_ABSOLUTE_CENTRES = re.compile(r"G[^\S\r\n]*0*90[^\S\r\n]*\.[^\S\r\n]*1(?!\d)", re.IGNORECASE)  # within a line
+_LEADING_N = re.compile(r"[^\S\r\n]*(?:[Nn][^\S\r\n]*\d+[^\S\r\n]*)?")
 
 
 @dataclass
@@ -115,7 +115,7 @@ def weld_arcs(current: Program, original: Program, tolerance: float, read_option
     GCodeError
         When the re-read output moved a point outside the arcs (an internal error: nothing should be written).
     """
-    if _ABSOLUTE_CENTRES.search(text_of(current)):
+    if occurs(current, _ABSOLUTE_CENTRES):
         return (text_of(current), [], np.zeros(0, np.int64),
                 "the program uses G90.1 (absolute arc centres): arcs are not fitted", 0)
     # the re-read check reads the arcs as chords within CHECK_CHORD of them (whatever the caller's tolerance)
