@@ -40,6 +40,7 @@ IDLE_WINDOW = 1024     # starts looked at at once for chunks that would do nothi
 GRID = 17              # the minimax centre's coarse search along the bisector, then
 GOLDEN_STEPS = 12      # golden-section steps in the best cell (its interval shrinks 0.618 a step)
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+_GRID_STEPS = np.linspace(-1.0, 1.0, GRID)  # the coarse grid's places, in 5 % of the chord either side
 
 
 @dataclass(frozen=True)
@@ -257,7 +258,7 @@ def _measure_ends(chain: Chain, starts: np.ndarray, j: np.ndarray, valid: np.nda
     if kernels is not None:
         fits, centre = kernels.screen(chain.xy, chain.original, chain.target, chain.decimals, chain.end_scale,
                                       chain.centre_scale, starts, j, valid, end, budget, min_segments, max_radius,
-                                      np.linspace(-1.0, 1.0, GRID), _GOLDEN, GOLDEN_STEPS)
+                                      _GRID_STEPS, _GOLDEN, GOLDEN_STEPS)
         return fits, centre + chain.xy[starts][:, None, :]
     k = np.arange(size + 1)
     index = np.minimum(starts[:, None] + k[None, :], len(chain.xy) - 1)  # (B, K+1)
@@ -312,7 +313,7 @@ def _golden(a, miss, inner, least, half) -> np.ndarray:
         return np.where(inner, err, 0.0).max(axis=-1)
 
     # a coarse grid first (the largest miss need not have one minimum), then golden section in its best cell
-    grid = np.linspace(-1.0, 1.0, GRID)
+    grid = _GRID_STEPS
     coarse = np.stack([worst(least + g * width) for g in grid], axis=-1)
     centre = least + grid[np.argmin(coarse, axis=-1)] * width
     cell = width * 2.0 / (GRID - 1)
