@@ -369,12 +369,18 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
                  work, env)
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
-    run(dvc + ["queue", "start", "-j", "2"], work, env)
-    deadline = time.monotonic() + 600
-    while re.search(r"\b(Queued|Running)\b", status := run(dvc + ["queue", "status"], work, env)):
-        assert time.monotonic() < deadline, status
-        time.sleep(1)
-    run(dvc + ["queue", "stop"], work, env)
+    # the workers `dvc queue start` leaves running hold its output pipes: its output goes to a file, so the
+    # call returns when it has started them, and the queue's own status says when they are done
+    with (tmp_path / "queue-start.log").open("w") as log:
+        subprocess.run(dvc + ["queue", "start", "-j", "2"], cwd=work, env=env, stdout=log, stderr=log, check=True)
+    try:
+        deadline = time.monotonic() + 600
+        while re.search(r"\b(Queued|Running)\b", status := run(dvc + ["queue", "status"], work, env)):
+            assert time.monotonic() < deadline, status
+            time.sleep(1)
+        run(dvc + ["queue", "stop"], work, env)
+    finally:
+        stop_queue_workers(work)
     assert status.count("Success") == 2, status
     ran = run(dvc + ["queue", "logs", names[0]], work, env)
     assert "Running stage 'train@mlp'" in ran and "Running stage 'generate@" not in ran, ran[-3000:]
@@ -400,3 +406,32 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     for name in names:
         children = [r.info.run_name for r in runs if r.data.tags.get("mlflow.parentRunId") == parents[name]]
         assert "train@mlp" in children
+
+
+def stop_queue_workers(work: Path, grace: float = 15.0) -> None:
+    """End the queue's worker processes (their pid files under .dvc/tmp/exps/celery) that `dvc queue stop`
+    left running: a worker whose idle monitor stopped while its task ran was once seen waiting for ever
+    after the task succeeded (dvc-task), which held the test with it."""
+    pids = []
+    for pid_file in (work / ".dvc/tmp/exps/celery").glob("*.pid"):
+        try:
+            pids.append(int(pid_file.read_text().strip()))
+        except (OSError, ValueError):
+            continue
+    deadline = time.monotonic() + grace
+    for pid in pids:
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        if _alive(pid):
+            os.kill(pid, 15)
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` is still a running queue worker (not gone, not a zombie, not a reused pid)."""
+    try:
+        command = Path(f"/proc/{pid}/cmdline").read_bytes()
+        state = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return b"queue-worker" in command and "zombie" not in state.lower()
+

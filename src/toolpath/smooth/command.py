@@ -322,19 +322,18 @@ def run(args: argparse.Namespace) -> dict:
 
 
 def _weld(result, program, tolerance: float, start, paths: bool = True) -> None:
-    """``--arcs``: G1 runs of the smoothed part replaced by arcs (:mod:`toolpath.smooth.arc_weld`); with
-    ``paths`` (a report plans the machining time, a plot draws them) the runs as a controller runs them."""
+    """``--arcs``: G1 runs of the smoothed part (a part the smoothing left as it was: as read, not read again)
+    replaced by arcs (:mod:`toolpath.smooth.arc_weld`); with ``paths`` (a report plans the machining time, a
+    plot draws them) the runs as a controller runs them."""
     from dataclasses import replace
 
     from toolpath.geometry.labels.windows import feed_runs
     from toolpath.smooth.arc_runs import text_of
     from toolpath.smooth.arc_weld import weld_arcs
 
-    # a part the smoothing left as it was is its own reading (a million-line part: a second read saved)
     smoothed = program if result.text == text_of(program) else start.snapshot().read(result.text)
     text, arcs, lines, note, kept_as_lines = weld_arcs(smoothed, program, tolerance, start=start)
-    result.text, result.arcs, result.arcs_note = text, arcs, note
-    result.arcs_kept_as_lines = kept_as_lines
+    result.text, result.arcs, result.arcs_note, result.arcs_kept_as_lines = text, arcs, note, kept_as_lines
     # the feed planner sees an arc as chords within its blend tolerance (finer chords only add vertices)
     if paths:
         coarse = start.with_options(replace(start.options, chord_tolerance=BLEND_TOLERANCE))
