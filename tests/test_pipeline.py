@@ -370,14 +370,18 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
     names = re.findall(r"Queued experiment '([^']+)'", queued)
     assert len(names) == 2, queued
     # the workers `dvc queue start` leaves running hold its output pipes: its output goes to a file, so the
-    # call returns when it has started them, and the queue's own status says when they are done
+    # call returns when it has started them
     with (tmp_path / "queue-start.log").open("w") as log:
         subprocess.run(dvc + ["queue", "start", "-j", "2"], cwd=work, env=env, stdout=log, stderr=log, check=True)
     try:
         deadline = time.monotonic() + 600
+        # a worker ends when the queue is empty: until one has, nothing runs beside the experiments (a
+        # `dvc queue status` is a DVC process taking the repository's lock the experiments' collection needs)
+        while len(queue_workers(work)) == 2 and time.monotonic() < deadline:
+            time.sleep(0.5)
         while re.search(r"\b(Queued|Running)\b", status := run(dvc + ["queue", "status"], work, env)):
             assert time.monotonic() < deadline, status
-            time.sleep(5)  # each status is a DVC process (about 2 s of CPU) beside the experiments' own work
+            time.sleep(5)
         run(dvc + ["queue", "stop"], work, env)
     finally:
         stop_queue_workers(work)
@@ -408,18 +412,22 @@ def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
         assert "train@mlp" in children
 
 
-def stop_queue_workers(work: Path, grace: float = 15.0) -> None:
-    """End the queue's worker processes (their pid files under .dvc/tmp/exps/celery) that `dvc queue stop`
-    left running: a worker whose idle monitor stopped while its task ran was once seen waiting for ever
-    after the task succeeded (dvc-task), which held the test with it."""
+def queue_workers(work: Path) -> list[int]:
+    """The queue's worker processes still running (their pid files under .dvc/tmp/exps/celery)."""
     pids = []
     for pid_file in (work / ".dvc/tmp/exps/celery").glob("*.pid"):
         try:
             pids.append(int(pid_file.read_text().strip()))
         except (OSError, ValueError):
             continue
+    return [pid for pid in pids if _alive(pid)]
+
+
+def stop_queue_workers(work: Path, grace: float = 15.0) -> None:
+    """End the queue's workers that `dvc queue stop` left running: a worker whose idle monitor stopped while
+    its task ran was once seen waiting for ever after the task succeeded (dvc-task), which held the test."""
     deadline = time.monotonic() + grace
-    for pid in pids:
+    for pid in queue_workers(work):
         while _alive(pid) and time.monotonic() < deadline:
             time.sleep(0.2)
         if _alive(pid):
