@@ -215,15 +215,6 @@ def _measured(chain: Chain, chunk: np.ndarray, end: int, budget: float, min_segm
         yield i, fits[k], centres[k]
 
 
-def centre_of(chain: Chain, i: int, q: int, end: int, budget: float, min_segments: int,
-              max_radius: float) -> np.ndarray | None:
-    """The centre (mm) of the arc from point ``i`` to ``q`` of ``chain`` the screen finds within ``budget``
-    (for an end :func:`_measured` took to fit without measuring it), or None where none fits."""
-    fits, centre = _measure_ends(chain, np.array([i]), np.array([[q - i]]), np.ones((1, 1), bool), end, budget,
-                                 min_segments, max_radius)
-    return centre[0, 0] if fits[0, 0] else None
-
-
 def _measure_rows(chain: Chain, chunk: np.ndarray, rows: list, ends: dict, last: np.ndarray, fits: list,
                   centres: list, end: int, budget: float, min_segments: int, max_radius: float) -> None:
     """Measure ``ends[r]`` of each start ``chunk[r]`` of ``rows`` into ``fits`` and ``centres``, as many

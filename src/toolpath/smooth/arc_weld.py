@@ -105,7 +105,8 @@ def fit_arc(points: np.ndarray, centre: np.ndarray | None = None) -> _Arc | None
 
 def weld_arcs(current: Program, original: Program, tolerance: float, read_options: ReaderOptions | None = None,
               start: Reading | None = None) -> tuple[str, list[ArcRecord], np.ndarray, str | None, int]:
-    """The text of ``current`` (the smoothed program, its lines those of ``original``) with G1 runs
+    """The text of ``current`` (the smoothed program as read from its text, its lines those of ``original``:
+    the check compares its points with the output's as read) with G1 runs
     replaced by arcs within ``tolerance`` of ``original``'s path; the arcs; the input lines changed or
     removed (ascending); why no arc was tried (or None); how many arcs the exact check rejected and were kept as
     their G1 lines.  ``start``: for a part of a program, the reading its output is re-read from.
