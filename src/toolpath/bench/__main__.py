@@ -18,8 +18,9 @@ writes ``reports/bench/programs.json``: ``toolpath smooth`` on every program und
 checked by a reader written apart (:mod:`toolpath.bench.programs`).  With ``--only tube`` (about ten minutes a
 shape), writes ``reports/bench/tube_limit.json``: how far the tube lets any of our methods go on the optimize
 stage's windows (:mod:`toolpath.bench.tube_limit`).  Writes ``reports/bench/recurrences.json``: one tanh RNN
-layer as the ONNX ``RNN`` node, as the exporter's unrolled steps and as the fewest-node unrolled form, in
-both runtimes side by side (:mod:`toolpath.bench.recurrences`).  With ``--only planner``, writes
+layer as the ONNX ``RNN`` node, as the exporter's unrolled steps and as the fewest-node unrolled form, and
+MCRL whole in every form of Table 4d (the compact one included), in both runtimes side by side
+(:mod:`toolpath.bench.recurrences`).  With ``--only planner``, writes
 ``reports/bench/planner_limit.json``: the corner cases under the planner, the planner without its tangential
 jerk limit and toppra's bound, at three tangential accelerations (:mod:`toolpath.bench.planner_limit`).
 Writes ``reports/bench/warm_start.json``: one small stage started in its own process and handed to the warm
@@ -308,23 +309,11 @@ def _runtimes(threads: int, repeats: int) -> int:
 
 
 def _recurrences(threads: int, repeats: int) -> None:
-    from toolpath.bench.recurrences import measure
+    from toolpath.bench.recurrences import measure, print_tables
 
     result = measure(threads, repeats)
     write_json(result, OUT / "recurrences.json")
-    table = Table(title=f"one tanh RNN layer, batch 256, {threads} threads: the ONNX RNN node (native), the exporter's "
-                        f"unrolled steps, the fewest-node unrolled form (lean); ms (x speed of unrolled), median of "
-                        f"{repeats}")
-    for column in ("layer", "form", "nodes", "file kB", "ONNX Runtime", "OpenVINO"):
-        table.add_column(column, justify="right")
-    for name, layer in result["layers"].items():
-        for form in ("native", "unrolled", "lean"):
-            row = layer[form]
-            table.add_row(f"{name} ({layer['inputs']} -> {layer['hidden']}, {layer['steps']} steps)", form,
-                          str(row["nodes"]), f"{row['file_bytes'] / 1e3:,.0f}",
-                          *(f"{row[f'{rt}_ms']:.2f} ({row[f'{rt}_vs_unrolled']:.2f}x)" for rt in ("onnxruntime",
-                                                                                                  "openvino")))
-    Console().print(table)
+    print_tables(result)
     print(f"wrote {OUT / 'recurrences.json'}")
 
 

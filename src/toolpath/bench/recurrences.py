@@ -25,7 +25,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from toolpath.inference.recurrences import TRANSLATIONS, graph_nodes
+from toolpath.inference.recurrences import TRANSLATIONS, compare_forms, graph_nodes
 from toolpath.inference.runtimes import RUNTIMES, export_onnx, runner
 from toolpath.inference.timing import machine, timed
 
@@ -83,9 +83,65 @@ def measure_layer(inputs: int, hidden: int, steps: int, threads: int, repeats: i
     return out
 
 
+def measure_mcrl(threads: int, repeats: int, folder: Path, seed: int = 0) -> dict:
+    """The configured MCRL (seeded weights, untrained: the timings do not depend on them) in every form of
+    Table 4d (:func:`toolpath.inference.recurrences.compare_forms`, the lean form as shipped), on a batch of
+    random-walk windows."""
+    from toolpath.inference.qat import fp32_twin
+    from toolpath.models import registry
+    from toolpath.pipeline import config
+
+    generator = torch.Generator().manual_seed(seed)
+    torch.manual_seed(seed)
+    net = registry.build(config.load().models["mcrl"]).eval()
+    windows = (torch.randn(BATCH, 50, 2, generator=generator) * 0.05 + 0.3).cumsum(1)
+    net.prepare.fit_scale(windows)
+    torch.save(net.state_dict(), folder / "mcrl.pt")
+    export_onnx(fp32_twin(net), windows[:2], folder / "mcrl.onnx")
+
+    def time_runners(runs: dict) -> dict[str, float]:
+        return {k: s["batch"] for k, s in timed(runs, {"batch": windows}, repeats).items()}
+
+    forms = compare_forms(net, folder / "mcrl.onnx", folder, folder / "mcrl.pt", windows, time_runners,
+                          lambda path, runtime: runner(path, runtime, threads))
+    return {"batch": BATCH, "forms": forms}
+
+
 def measure(threads: int, repeats: int) -> dict:
-    """Every layer shape of :func:`layer_shapes`, in scratch files removed afterwards."""
+    """Every layer shape of :func:`layer_shapes`, and MCRL whole in every form, in scratch files removed
+    afterwards."""
     with tempfile.TemporaryDirectory(prefix="rnn-forms-") as tmp:
         layers = {name: measure_layer(*shape, threads, repeats, Path(tmp))
                   for name, shape in layer_shapes().items()}
-    return {"machine": machine(threads), "threads": threads, "repeats": repeats, "layers": layers}
+        mcrl = measure_mcrl(threads, repeats, Path(tmp))
+    return {"machine": machine(threads), "threads": threads, "repeats": repeats, "layers": layers, "mcrl": mcrl}
+
+
+def print_tables(result: dict) -> None:
+    """The measurement as two tables on the terminal: each layer's forms, and MCRL whole."""
+    from rich.console import Console
+    from rich.table import Table
+
+    threads, repeats = result["threads"], result["repeats"]
+    table = Table(title=f"one tanh RNN layer, batch 256, {threads} threads: the ONNX RNN node (native), the exporter's "
+                        f"unrolled steps, the fewest-node unrolled form (lean); ms (x speed of unrolled), median of "
+                        f"{repeats}")
+    for column in ("layer", "form", "nodes", "file kB", "ONNX Runtime", "OpenVINO"):
+        table.add_column(column, justify="right")
+    for name, layer in result["layers"].items():
+        for form in ("native", "unrolled", "lean"):
+            row = layer[form]
+            table.add_row(f"{name} ({layer['inputs']} -> {layer['hidden']}, {layer['steps']} steps)", form,
+                          str(row["nodes"]), f"{row['file_bytes'] / 1e3:,.0f}",
+                          *(f"{row[f'{rt}_ms']:.2f} ({row[f'{rt}_vs_unrolled']:.2f}x)" for rt in ("onnxruntime",
+                                                                                                  "openvino")))
+    Console().print(table)
+    whole = Table(title=f"MCRL whole, batch {result['mcrl']['batch']}, {threads} threads: windows/s (x the exporter's "
+                        f"unrolling), median of {repeats}")
+    for column in ("form", "nodes (+ in loops)", "ONNX Runtime", "OpenVINO"):
+        whole.add_column(column, justify="right")
+    for form, row in result["mcrl"]["forms"].items():
+        whole.add_row(form, f"{row['nodes']} (+{row['loop_body_nodes']})",
+                      *(f"{row[f'{rt}_windows_per_s']:,.0f} ({row['speed_vs_exporter'][rt]:.2f}x)"
+                        for rt in ("onnxruntime", "openvino")))
+    Console().print(whole)

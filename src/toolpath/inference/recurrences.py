@@ -98,12 +98,19 @@ def has_recurrence(net: nn.Module) -> bool:
     return any(isinstance(m, nn.RNN | nn.LSTM) for m in net.modules())
 
 
+RECURRENT_OPS = ("RNN", "LSTM", "GRU", "Scan", "Loop")
+
+
 def graph_nodes(path: Path) -> dict:
-    """The node count of an ONNX file and how many are recurrences (``RNN`` / ``LSTM`` / ``GRU``)."""
+    """The node count of an ONNX file's graph, how many are recurrences (``RNN`` / ``LSTM`` / ``GRU`` nodes
+    and ``Scan`` / ``Loop`` loops) and how many nodes the loops' bodies hold (run once per step)."""
     import onnx
 
-    ops = Counter(node.op_type for node in onnx.load(str(path), load_external_data=False).graph.node)
-    return {"nodes": sum(ops.values()), "recurrent_nodes": ops["RNN"] + ops["LSTM"] + ops["GRU"]}
+    graph = onnx.load(str(path), load_external_data=False).graph
+    ops = Counter(node.op_type for node in graph.node)
+    bodies = sum(len(attr.g.node) for node in graph.node for attr in node.attribute if attr.type == attr.GRAPH)
+    return {"nodes": sum(ops.values()), "recurrent_nodes": sum(ops[op] for op in RECURRENT_OPS),
+            "loop_body_nodes": bodies}
 
 
 def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: Path, batch: Tensor,
@@ -112,11 +119,13 @@ def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: 
     exported already in the lean form, :mod:`toolpath.inference.lean`); ``exporter``, ``net`` as torch's
     exporter unrolls it (the form shipped before the lean one); ``native``, its recurrences as ONNX nodes;
     and, for a network with a :class:`ContextRNN`, ``unhoisted``, that layer unrolled with the input
-    projection of the fused input at every step (the form before the hoist), the last three exported here
-    into ``folder``.  Per form: bytes and their ratio to the ``checkpoint``, nodes, the largest logit
+    projection of the fused input at every step (the form before the hoist); for an MCRL on the turning terms,
+    ``compact`` (:mod:`toolpath.inference.compact`: its tanh RNNs as one ``Scan`` loop); all but the first
+    exported here into ``folder``.  Per form: bytes and their ratio to the ``checkpoint``, nodes, the largest logit
     difference from the torch network on ``batch``, windows per second in every runtime, all timed by one
     ``time_runners({name: fn})`` call (interleaved, so the ratios are side by side), and
     ``speed_vs_exporter`` per runtime.  ``runner(path, runtime)`` opens a file."""
+    from toolpath.inference import compact
     from toolpath.inference.runtimes import RUNTIMES, export_onnx
 
     plain = native_form(net)
@@ -127,6 +136,9 @@ def compare_forms(net: nn.Module, shipped_file: Path, folder: Path, checkpoint: 
     if any(isinstance(m, ContextRNN) for m in net.modules()):
         forms["unhoisted"] = folder / f"{shipped_file.stem}.unhoisted.onnx"
         export_onnx(plain, batch[:2], forms["unhoisted"], translations={})
+    if compact.supported(net):
+        forms["compact"] = folder / f"{shipped_file.stem}.compact.onnx"
+        compact.save_compact(net, forms["compact"], window=batch.shape[1])
     with torch.inference_mode():
         reference = net.eval()(batch).numpy()
     runners = {f"{form}_{rt}": runner(path, rt) for form, path in forms.items() for rt in RUNTIMES}
