@@ -65,7 +65,7 @@ class _Graph:
 
         names = [name] if name else [f"{op_type.lower()}{self._count}_{i}" for i in range(outputs)]
         self._count += 1
-        self.nodes.append(helper.make_node(op_type, list(inputs), names, **attrs))
+        self.nodes.append(helper.make_node(op_type, list(inputs), names, name=names[0], **attrs))
         return names[0] if outputs == 1 else names
 
 
