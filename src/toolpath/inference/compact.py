@@ -1,10 +1,10 @@
 """MCRL as a compact ONNX graph written from its weights: its tanh RNNs as one ``Scan`` loop, its branches folded.
 
-torch's exporter writes MCRL in 400-570 nodes (each tanh RNN step by step, each linear layer of a branch as
+torch's exporter writes MCRL in hundreds of nodes (each tanh RNN step by step, each linear layer of a branch as
 its own MatMul and Add, each resampling as a dozen gathers); the ``RNN`` operator gives it three nodes, but
-ONNX Runtime's ``RNN`` kernel runs 3-5x slower than the same steps written out (``make bench``:
-``reports/bench/recurrences.json``).  :func:`compact_mcrl` writes the same function in about 135 nodes and
-8 more in its loop's body:
+ONNX Runtime's ``RNN`` kernel runs several times slower than the same steps written out (``make bench``:
+``reports/bench/recurrences.json``).  :func:`compact_mcrl` writes the same function in at most 150 nodes,
+its loop's body counted (a test checks it):
 
 * the three tanh RNNs are one ``Scan`` over the batch-first sequence whose body steps every layer (per layer
   a ``Gemm`` with the step's input projection as its bias and a ``Tanh``; above the first, one more ``Gemm``
