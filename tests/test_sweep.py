@@ -61,6 +61,22 @@ def sweep_dir(tmp_path, windows_dir, monkeypatch):
     return tmp_path
 
 
+def test_a_launch_composes_its_base_configuration_once_per_content_of_conf(tmp_path):
+    from omegaconf.errors import ReadonlyConfigError
+
+    from toolpath.sweep.study import base_config
+
+    shutil.copytree(REPO / "conf", tmp_path / "conf")
+    first = base_config(tmp_path, SMOKE)
+    assert base_config(tmp_path, SMOKE) is first  # read again, not composed again
+    with pytest.raises(ReadonlyConfigError):  # so no reader can change what the next one reads
+        first.seed = 1
+    assert base_config(tmp_path, [*SMOKE, "seed=7"]).seed == 7  # other overrides: another composition
+    config_file = tmp_path / "conf/config.yaml"
+    config_file.write_text(config_file.read_text().replace(f"seed: {first.seed}", "seed: 11", 1))
+    assert base_config(tmp_path, SMOKE).seed == 11  # conf/ changed (a tuned config adopted): composed again
+
+
 def test_space_turns_samples_into_hydra_overrides():
     space = {"lr": {"key": "train.per_shape.{shape}.lr", "type": "float", "low": 1e-4, "high": 1e-2, "log": True},
              "hidden": {"key": "models.mcrl.mlp_hidden", "type": "choice", "choices": [[8, 4], [16, 8]]}}

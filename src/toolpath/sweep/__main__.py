@@ -87,8 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: conf/sweep/{args.config}.yaml not found (run from the repository root)", file=sys.stderr)
         return 2
     try:
-        from toolpath.pipeline.config import compose_config as compose
         from toolpath.sweep.finish import finish
+        from toolpath.sweep.study import base_config as compose
         from toolpath.sweep.study import open_study, spec_from
 
         base_overrides = [f"+sweep={args.config}", *args.overrides]

@@ -12,8 +12,7 @@ import optuna
 from omegaconf import OmegaConf
 
 from toolpath.models.registry import split_schedule
-from toolpath.pipeline.config import compose_config as compose
-from toolpath.sweep.study import PARENT_ATTR, SweepSpec, mlflow_client
+from toolpath.sweep.study import PARENT_ATTR, SweepSpec, base_config, mlflow_client
 
 COMPLETE = optuna.trial.TrialState.COMPLETE
 
@@ -50,7 +49,7 @@ def tuned_config(spec: SweepSpec, study: optuna.Study) -> Path:
     from toolpath.sweep.space import overrides
 
     best = study.best_trial
-    base = compose(spec.root, spec.base_overrides)
+    base = base_config(spec.root, spec.base_overrides)
     tuned = OmegaConf.create(OmegaConf.to_container(base.models[spec.model], resolve=True))
     network, schedule = split_schedule(OmegaConf.to_container(tuned))
     tuned = OmegaConf.create(network)

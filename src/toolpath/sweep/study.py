@@ -163,9 +163,25 @@ def mlflow_client(spec: SweepSpec) -> Any:
     return tracking.client(spec.tracking_uri)
 
 
+_BASES: dict[tuple[str, tuple[str, ...], str], DictConfig] = {}
+
+
+def base_config(root: Path, base_overrides: Sequence[str]) -> DictConfig:
+    """``base_overrides`` composed on ``root/conf``, read-only: composed once per process and content of
+    ``conf/`` (a launch reads its base configuration in four places, and a composition takes about a second;
+    writing a tuned config into ``conf/`` makes the next call compose again)."""
+    from toolpath.pipeline.config import CONF_DIR, _conf_digest
+
+    key = (str(Path(root).resolve()), tuple(base_overrides), _conf_digest(Path(root) / CONF_DIR).hexdigest())
+    if key not in _BASES:
+        _BASES[key] = compose(root, base_overrides)
+        OmegaConf.set_readonly(_BASES[key], True)
+    return _BASES[key]
+
+
 def default_params(spec: SweepSpec) -> dict[str, Any] | None:
     """The Optuna values of the configuration as composed (no sampled override), if inside the space."""
-    base = compose(spec.root, spec.base_overrides)
+    base = base_config(spec.root, spec.base_overrides)
     def plain(key: str) -> Any:
         value = OmegaConf.select(base, key)
         return OmegaConf.to_container(value) if OmegaConf.is_config(value) else value
@@ -262,7 +278,7 @@ def run_trials(spec: SweepSpec, n_trials: int, worker: int, callbacks: Sequence[
     parent = study.user_attrs[PARENT_ATTR]
     client = mlflow_client(spec)
     experiment = tracking.experiment_id(client, SWEEP_EXPERIMENT)
-    base = compose(spec.root, spec.base_overrides)
+    base = base_config(spec.root, spec.base_overrides)
     splits = load_splits(spec.root / layout(base).windows_file(spec.shape))
     completed = 0
 
