@@ -3,6 +3,7 @@ and an MLP trained on it."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -19,9 +20,34 @@ def corpus() -> Path:
     return CORPUS
 
 
+@pytest.fixture(scope="session")
+def mlflow_template(tmp_path_factory) -> Path:
+    """An empty MLflow SQLite store, made once per test process: MLflow makes a new store by running its
+    schema migrations (3-5 s each time), and a copy of this file is the store it would make (see
+    :func:`copy_store`); tests/test_tracking.py still makes new ones."""
+    import mlflow
+
+    path = tmp_path_factory.mktemp("mlflow-template") / "mlflow.db"
+    mlflow.MlflowClient(f"sqlite:///{path}").search_experiments()
+    return path
+
+
+def copy_store(template: Path, path: Path) -> str:
+    """The empty store at ``path`` (its URI), as MLflow would make it there: the template's tables, and its
+    default experiment's artefacts beside the file instead of beside the template."""
+    import sqlite3
+    from contextlib import closing
+
+    shutil.copyfile(template, path)
+    with closing(sqlite3.connect(path)) as db, db:
+        db.execute("UPDATE experiments SET artifact_location = ? WHERE experiment_id = 0",
+                   (str(path.parent / "mlruns" / "0"),))
+    return f"sqlite:///{path}"
+
+
 @pytest.fixture
-def mlflow_store(tmp_path, monkeypatch) -> str:
-    uri = f"sqlite:///{tmp_path}/mlflow.db"
+def mlflow_store(tmp_path, monkeypatch, mlflow_template) -> str:
+    uri = copy_store(mlflow_template, tmp_path / "mlflow.db")
     monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
     monkeypatch.setenv("DVC_ROOT", str(tmp_path))
     return uri

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import REPO
+from conftest import REPO, copy_store
 from toolpath.gcode import read_file
 from toolpath.pipeline import config
 
@@ -29,8 +29,9 @@ def run(cmd, cwd, env):
     return done.stdout
 
 
-def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
-    """A git repository holding the tracked files (no outputs), composed on the smoke profile."""
+def smoke_copy(tmp_path, mlflow_template) -> tuple[Path, dict, list[str]]:
+    """A git repository holding the tracked files (no outputs), composed on the smoke profile, and an empty
+    MLflow store."""
     tracked = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True).stdout
     work = tmp_path / "repo"
     for rel in tracked.splitlines():
@@ -43,7 +44,7 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
     # against it (a smoke generalise stage took 90 s instead of 5)
     env = {**os.environ, "PATH": venv_bin + os.pathsep + os.environ["PATH"], "DVC_NO_ANALYTICS": "1",
            "OMP_NUM_THREADS": "1",
-           "MLFLOW_TRACKING_URI": f"sqlite:///{tmp_path}/mlflow.db",
+           "MLFLOW_TRACKING_URI": copy_store(mlflow_template, tmp_path / "mlflow.db"),
            "GIT_AUTHOR_NAME": "t", "GIT_AUTHOR_EMAIL": "t@t", "GIT_COMMITTER_NAME": "t", "GIT_COMMITTER_EMAIL": "t@t"}
     run(["git", "init", "-q"], work, env)
     config.compose(["+experiment=smoke"], root=work)
@@ -53,8 +54,8 @@ def smoke_copy(tmp_path) -> tuple[Path, dict, list[str]]:
 
 
 @pytest.mark.xdist_group("pipeline")
-def test_dvc_repro_on_smoke_profile(tmp_path, monkeypatch):
-    work, env, dvc = smoke_copy(tmp_path)
+def test_dvc_repro_on_smoke_profile(tmp_path, monkeypatch, mlflow_template):
+    work, env, dvc = smoke_copy(tmp_path, mlflow_template)
     timing = tmp_path / "pipeline_time.json"  # `make repro`'s warm server and stage timer around `dvc repro`
     run([sys.executable, "-m", "toolpath.pipeline.warm", "--", sys.executable, "-m", "toolpath.pipeline.stage_times",
          "--out", str(timing), "--", *dvc, "repro"], work, env)
@@ -352,10 +353,10 @@ def assert_shipped_onnx_reloads_and_agrees(work: Path) -> None:
 
 
 @pytest.mark.xdist_group("queue")
-def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path):
+def test_grid_sweep_through_the_dvc_experiment_queue(tmp_path, mlflow_template):
     """Two queued experiments (a learning-rate grid), two queue workers, metrics in `dvc exp show`,
     and one MLflow parent run per experiment named after it (both workers write one SQLite store)."""
-    work, env, dvc = smoke_copy(tmp_path)
+    work, env, dvc = smoke_copy(tmp_path, mlflow_template)
     # as a user queues a grid: in a workspace whose windows are made and committed, so each experiment
     # takes them from the cache and retrains only the MLP (the queue's plumbing is under test; MCRL's
     # training and export are the slow part of a whole experiment, and the smoke repro above trains it),

@@ -14,7 +14,7 @@ import pytest
 from omegaconf import OmegaConf
 
 import toolpath.models  # noqa: F401  (before toolpath.models.training: the two import each other)
-from conftest import REPO
+from conftest import REPO, copy_store
 from toolpath.pipeline import config
 from toolpath.pipeline.config import compose_config as compose
 from toolpath.pipeline.settings import training as model_and_settings
@@ -32,14 +32,14 @@ SWEEP = [*SMOKE, "sweep.study=mcrl-gear", "sweep.replicates=1", "sweep.space.epo
 
 
 @pytest.fixture(scope="module")
-def windows_dir(tmp_path_factory):
+def windows_dir(tmp_path_factory, mlflow_template):
     """conf/ and smoke gear windows in a directory of their own (built once for the module)."""
     root = tmp_path_factory.mktemp("sweep")
     shutil.copytree(REPO / "conf", root / "conf")
     config.compose(SMOKE, root=root)
     old = os.getcwd()
     env = {k: os.environ.get(k) for k in ("MLFLOW_TRACKING_URI", "DVC_ROOT")}
-    os.environ.update(MLFLOW_TRACKING_URI=f"sqlite:///{root}/stages.db", DVC_ROOT=str(root))
+    os.environ.update(MLFLOW_TRACKING_URI=copy_store(mlflow_template, root / "stages.db"), DVC_ROOT=str(root))
     try:
         os.chdir(root)
         generate.main(["--shape", "gear"])
@@ -51,11 +51,11 @@ def windows_dir(tmp_path_factory):
 
 
 @pytest.fixture
-def sweep_dir(tmp_path, windows_dir, monkeypatch):
+def sweep_dir(tmp_path, windows_dir, monkeypatch, mlflow_template):
     shutil.copytree(REPO / "conf", tmp_path / "conf")
     shutil.copytree(windows_dir, tmp_path / "data" / "windows")
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{tmp_path}/mlflow.db")
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", copy_store(mlflow_template, tmp_path / "mlflow.db"))
     monkeypatch.setenv("DVC_ROOT", str(tmp_path))
     monkeypatch.delenv("TOOLPATH_SWEEP_STORAGE", raising=False)
     return tmp_path
