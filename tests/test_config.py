@@ -18,6 +18,33 @@ def test_params_yaml_is_the_composition_of_conf(tmp_path):
     assert out.read_bytes() == committed, "params.yaml drifted from conf/: run `python -m toolpath.pipeline.config`"
 
 
+def test_a_composition_kept_for_its_groups_takes_value_overrides_as_hydra_does(tmp_path):
+    """compose_config keeps the merged groups and sets the values itself: what it gives is what DVC's own
+    composition writes, and a bad value fails as Hydra fails."""
+    for overrides in (["+experiment=smoke", "shapes=[gear]", "train.protocol.lr.mlp=1e-3"],  # on a chosen group
+                      ["model@models.mcrl=mcrl", "models.mcrl.dropout=0.1", "+extra.key=3", "~models.rule", "++seed=5"],
+                      ["train={models: [mlp]}", "seed=${train.common.lr}"]):  # a dict for a group's name: a value
+        written = config.compose(overrides, root=REPO, output=tmp_path / "p.yaml").read_text()
+        for _ in range(2):  # the second time from the kept composition
+            assert OmegaConf.to_yaml(config.compose_config(REPO, overrides)) == written
+
+    def outcome(compose, bad):
+        try:
+            return OmegaConf.to_yaml(compose(["+experiment=smoke", *bad]))
+        except Exception as exc:  # noqa: BLE001 - Hydra's and OmegaConf's kinds alike: compared, not raised
+            return type(exc).__name__, str(exc)
+
+    def hydra(given):
+        cfg = config._hydra_compose(REPO / "conf", given)
+        OmegaConf.resolve(cfg)
+        return cfg
+
+    for bad in (["nonexist=3"], ["+seed=4"], ["~models.nope"], ["seed=1,2"]):
+        expected = outcome(hydra, bad)
+        assert isinstance(expected, tuple)
+        assert outcome(lambda given: config.compose_config(REPO, given), bad) == expected
+
+
 @pytest.mark.parametrize("experiment", sorted(p.stem for p in (REPO / "conf" / "experiment").glob("*.yaml")))
 def test_every_experiment_composes(tmp_path, experiment):
     cfg = OmegaConf.load(config.compose([f"+experiment={experiment}"], root=REPO, output=tmp_path / "p.yaml"))

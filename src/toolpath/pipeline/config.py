@@ -34,16 +34,54 @@ def compose(overrides: Sequence[str] = (), root: Path | None = None, output: Pat
 
 def compose_config(root: Path, overrides: Sequence[str] = ()) -> DictConfig:
     """``root/conf`` composed with ``overrides`` and resolved, in memory (what :func:`compose` writes to
-    ``params.yaml``; the sweep composes each trial's config with it)."""
+    ``params.yaml``; the sweep composes each trial's config with it).
+
+    Hydra composes in two steps: the config groups chosen (the defaults list, then every file merged: most
+    of a second here) and then the value overrides, set on the merged config in order.  The first step's
+    result is kept per content of ``conf/`` and choice of groups, so a sweep's trials or a run of checks
+    that differ in values only pay the second; the value overrides go through Hydra's own function, with
+    its errors."""
+    import copy
+
+    from hydra._internal.config_loader_impl import ConfigLoaderImpl
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    conf = Path(root).resolve() / CONF_DIR
+    parsed = OverridesParser.create().parse_overrides(list(overrides))
+    if any(o.is_sweep_override() or _names_hydra(o.key_or_group) for o in parsed):
+        groups, values = list(overrides), []  # Hydra's own refusal or setting, as it composes them
+    else:  # Hydra's rule: a group override names a group (a folder of conf/) and sets no dict
+        grouped = [(conf / o.key_or_group).is_dir() and not isinstance(o.value(), dict) for o in parsed]
+        groups = [o.input_line for o, group in zip(parsed, grouped, strict=True) if group]
+        values = [o for o, group in zip(parsed, grouped, strict=True) if not group]
+    key = (_conf_digest(conf).hexdigest(), tuple(groups))
+    if key not in _MERGED:
+        if len(_MERGED) >= 8:  # a few choices of groups kept (a sweep's, a check run's), the oldest dropped
+            del _MERGED[next(iter(_MERGED))]
+        _MERGED[key] = _hydra_compose(conf, groups)
+    cfg = copy.deepcopy(_MERGED[key])
+    ConfigLoaderImpl._apply_overrides_to_config(values, cfg)
+    OmegaConf.resolve(cfg)
+    return cfg
+
+
+_MERGED: dict[tuple, DictConfig] = {}
+
+
+def _names_hydra(key: str) -> bool:
+    """Whether an override's key is Hydra's own node or groups (``hydra.*``, ``hydra/*``)."""
+    return key.replace("/", ".").split(".")[0] == "hydra"
+
+
+def _hydra_compose(conf: Path, overrides: Sequence[str]) -> DictConfig:
+    """Hydra's composition of ``conf`` with ``overrides``, unresolved."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
     GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(Path(root).resolve() / CONF_DIR), version_base=None):
-        cfg = hydra_compose(config_name="config", overrides=list(overrides))
-    OmegaConf.resolve(cfg)
-    return cfg
+    with initialize_config_dir(config_dir=str(conf), version_base=None):
+        return hydra_compose(config_name="config", overrides=list(overrides))
 
 
 def load(path: str | Path = PARAMS_FILE) -> DictConfig:
