@@ -11,8 +11,10 @@ OpenVINO is compiled with f32 as its inference precision: its default on this CP
 
 from __future__ import annotations
 
+import copy
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -45,11 +47,44 @@ def export_onnx(model: torch.nn.Module | torch.export.ExportedProgram, example: 
             program = model
         else:
             program = torch.export.export(model.eval(), (example,), dynamic_shapes=({0: batch},))
-        exported = torch.onnx.export(program, dynamo=True, input_names=["windows"], output_names=["logits"],
-                                     verbose=False, custom_translation_table=translations)
+        with _torchlib_table_kept():
+            exported = torch.onnx.export(program, dynamo=True, input_names=["windows"], output_names=["logits"],
+                                         verbose=False, custom_translation_table=translations)
     _strip_provenance(exported.model)
     exported.save(str(path), external_data=False)  # the weights inside the one file
     return path.stat().st_size
+
+
+_TORCHLIB_TABLES: dict = {}
+
+
+@contextmanager
+def _torchlib_table_kept() -> Iterator[None]:
+    """torch.onnx's exporter builds its table of ONNX functions from torchlib at every export (about 2 s:
+    most of a small network's export), though the table depends only on the opset.  Inside this block it
+    is built once per process and opset, and each export gets a copy of its own (the exporter adds the
+    custom translations to it).  With another torch's internals, the exporter runs as it is."""
+    try:
+        from torch.onnx._internal.exporter._registration import ONNXRegistry
+
+        build = ONNXRegistry.__dict__["from_torchlib"]
+    except (ImportError, KeyError):
+        yield
+        return
+
+    def kept(cls, *args, **kwargs):
+        key = (cls, args, tuple(sorted(kwargs.items())))
+        if key not in _TORCHLIB_TABLES:
+            _TORCHLIB_TABLES[key] = build.__func__(cls, *args, **kwargs)
+        table = copy.copy(_TORCHLIB_TABLES[key])
+        table.functions = {op: list(functions) for op, functions in table.functions.items()}
+        return table
+
+    ONNXRegistry.from_torchlib = classmethod(kept)
+    try:
+        yield
+    finally:
+        ONNXRegistry.from_torchlib = build
 
 
 def _strip_provenance(model) -> None:
