@@ -169,8 +169,9 @@ def prepare(net: nn.Module, example: torch.Tensor, float_modules: Sequence[str] 
             raise ValueError(f"qat.float_modules: {type(net).__name__} has no module {name!r}")
         quantizer.set_module_name_qconfig(name, None)
     from toolpath.inference.conv_bn_kinds import present_kinds_only
+    from toolpath.inference.pattern_graphs import pattern_graphs_kept
 
-    with present_kinds_only():
+    with present_kinds_only(), pattern_graphs_kept():
         prepared = prepare_qat_pt2e(export(net, example).module(), quantizer)
     # .train() / .eval() on an exported graph swap dropout / batch-norm ops, so the FP32 training loop runs
     # on it unchanged
@@ -184,18 +185,26 @@ MODE_DEPENDENT_OPS = ("dropout", "batch_norm")
 def allow_train_eval(model: torch.fx.GraphModule) -> torch.fx.GraphModule:
     """``model.train()`` / ``model.eval()`` on an exported graph: torchao's supported swap of its dropout and
     batch-norm ops, or, for a graph with neither, the mode flag alone.  The swap rewrites only those ops, so
-    on a graph without them it changes nothing, yet each call re-exports its patterns, twice per QAT epoch
-    (to validation and back)."""
+    on a graph without them it changes nothing, yet each call exports its patterns, twice per QAT epoch (to
+    validation and back): on a graph with them, each pattern is exported once per process
+    (:mod:`toolpath.inference.pattern_graphs`)."""
     from torchao.quantization.pt2e import allow_exported_model_train_eval
     from torchao.quantization.pt2e.export_utils import _EXPORTED_TRAINING_ATTR
 
+    from toolpath.inference.pattern_graphs import pattern_graphs_kept
+
     if any(node.op == "call_function" and any(op in str(node.target) for op in MODE_DEPENDENT_OPS)
            for node in model.graph.nodes):
-        return allow_exported_model_train_eval(model)
+        swap = allow_exported_model_train_eval(model).train
 
-    def train(self: torch.fx.GraphModule, mode: bool = True) -> torch.fx.GraphModule:
-        setattr(self, _EXPORTED_TRAINING_ATTR, mode)
-        return self
+        def train(self: torch.fx.GraphModule, mode: bool = True) -> torch.fx.GraphModule:
+            with pattern_graphs_kept():  # the swap's patterns exported once, not at every call
+                swap(mode)
+            return self
+    else:
+        def train(self: torch.fx.GraphModule, mode: bool = True) -> torch.fx.GraphModule:
+            setattr(self, _EXPORTED_TRAINING_ATTR, mode)
+            return self
 
     model.train = types.MethodType(train, model)  # type: ignore[method-assign]
     model.eval = types.MethodType(lambda self: train(self, False), model)  # type: ignore[method-assign]
@@ -213,9 +222,10 @@ def convert(prepared: torch.fx.GraphModule) -> torch.fx.GraphModule:
     from torchao.quantization.pt2e.quantize_pt2e import convert_pt2e
 
     from toolpath.inference.conv_bn_kinds import present_kinds_only
+    from toolpath.inference.pattern_graphs import pattern_graphs_kept
 
     prepared.eval()
-    with present_kinds_only():
+    with present_kinds_only(), pattern_graphs_kept():
         converted = convert_pt2e(prepared)
     return allow_train_eval(_drop_unused(converted))
 
