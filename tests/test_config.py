@@ -3,6 +3,7 @@
 import csv
 import json
 import re
+import sys
 
 import pytest
 import yaml
@@ -18,15 +19,19 @@ def test_params_yaml_is_the_composition_of_conf(tmp_path):
     assert out.read_bytes() == committed, "params.yaml drifted from conf/: run `python -m toolpath.pipeline.config`"
 
 
-def test_a_composition_kept_for_its_groups_takes_value_overrides_as_hydra_does(tmp_path):
+def test_a_composition_kept_for_its_groups_takes_value_overrides_as_hydra_does(tmp_path, monkeypatch):
     """compose_config keeps the merged groups and sets the values itself: what it gives is what DVC's own
-    composition writes, and a bad value fails as Hydra fails."""
+    composition writes, and a bad value fails as Hydra fails; a Hydra without the function composes whole."""
     for overrides in (["+experiment=smoke", "shapes=[gear]", "train.protocol.lr.mlp=1e-3"],  # on a chosen group
                       ["model@models.mcrl=mcrl", "models.mcrl.dropout=0.1", "+extra.key=3", "~models.rule", "++seed=5"],
                       ["train={models: [mlp]}", "seed=${train.common.lr}"]):  # a dict for a group's name: a value
         written = config.compose(overrides, root=REPO, output=tmp_path / "p.yaml").read_text()
         for _ in range(2):  # the second time from the kept composition
             assert OmegaConf.to_yaml(config.compose_config(REPO, overrides)) == written
+    with monkeypatch.context() as patch:  # Hydra's own code keeps the module it imported; ours cannot import it
+        patch.setitem(sys.modules, "hydra._internal.config_loader_impl", None)
+        patch.setattr(config, "_MERGED", {})
+        assert OmegaConf.to_yaml(config.compose_config(REPO, overrides)) == written and not config._MERGED
 
     def outcome(compose, bad):
         try:
