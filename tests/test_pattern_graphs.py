@@ -57,3 +57,18 @@ def test_qat_gives_the_same_graph_and_logits_with_patterns_kept(monkeypatch):
     assert results[True][0] == results[False][0]
     assert torch.equal(results[True][1], results[False][1])
     assert 0 < results[True][2] < results[False][2]  # each pattern once
+
+
+def test_a_torchao_without_the_exporter_of_patterns_runs_as_it_is(monkeypatch):
+    import sys
+
+    from torchao.quantization.pt2e import qat_utils, utils
+
+    before = utils._get_aten_graph_module_for_pattern, qat_utils._get_aten_graph_module_for_pattern
+    with pattern_graphs.pattern_graphs_kept():  # here, torchao's function is replaced
+        assert utils._get_aten_graph_module_for_pattern is not before[0]
+    for name in pattern_graphs._CALLERS:  # where neither module can be imported, nothing is replaced
+        monkeypatch.setitem(sys.modules, name, None)
+    with pattern_graphs.pattern_graphs_kept():
+        assert (utils._get_aten_graph_module_for_pattern, qat_utils._get_aten_graph_module_for_pattern) == before
+    assert (utils._get_aten_graph_module_for_pattern, qat_utils._get_aten_graph_module_for_pattern) == before

@@ -25,7 +25,11 @@ def int8_file(trained_mlp, tmp_path_factory):
     return path
 
 
-def test_fp32_onnx_gives_torch_logits_in_both_runtimes(trained_mlp, tmp_path):
+def test_fp32_onnx_gives_torch_logits_in_both_runtimes(trained_mlp, tmp_path, monkeypatch):
+    """An FP32 file gives torch's logits in both runtimes; where export_onnx cannot keep torch.onnx's torchlib
+    table (its module cannot be imported: another torch's internals), the exporter builds its own: the same bytes."""
+    import sys
+
     clf, X, _ = trained_mlp
     x = torch.as_tensor(X)
     size = runtimes.export_onnx(clf.network_, x[:2], tmp_path / "fp32.onnx")
@@ -35,6 +39,9 @@ def test_fp32_onnx_gives_torch_logits_in_both_runtimes(trained_mlp, tmp_path):
     for make in (runtimes.onnxruntime_runner, runtimes.openvino_runner):
         got = make(tmp_path / "fp32.onnx", 1)(x)
         np.testing.assert_allclose(got, expected, rtol=1e-4, atol=1e-4)
+    monkeypatch.setitem(sys.modules, "torch.onnx._internal.exporter._registration", None)  # torch keeps its own
+    runtimes.export_onnx(clf.network_, x[:2], tmp_path / "own" / "fp32.onnx")
+    assert (tmp_path / "own" / "fp32.onnx").read_bytes() == (tmp_path / "fp32.onnx").read_bytes()
 
 
 def test_int8_onnx_runs_the_qat_scales_in_both_runtimes(trained_mlp, int8_file, tmp_path):
