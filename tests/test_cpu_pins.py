@@ -13,8 +13,9 @@ import toolpath
 pytestmark = pytest.mark.skipif(platform.machine().lower() not in ("x86_64", "amd64"),
                                 reason="the pins are for x86-64 kernels")
 
-PROBE = ("import toolpath, numpy, torch; from numpy._core._multiarray_umath import __cpu_features__ as f; "
-         "print(f['X86_V4'], torch.backends.cpu.get_cpu_capability())")
+PROBE = ("import os, toolpath, numpy, torch; from numpy._core._multiarray_umath import __cpu_features__ as f; "
+         "print(f['X86_V4'], torch.backends.cpu.get_cpu_capability(), "
+         "'|'.join(os.environ.get(k, '-').replace(' ', '+') for k in sorted(toolpath.CPU_PINS)))")
 
 
 def _probe(env: dict) -> list[str]:
@@ -27,7 +28,9 @@ def _without_pins() -> dict:
 
 
 def test_importing_toolpath_first_runs_numpy_and_torch_on_avx2_kernels():
-    v4, torch_kernels = _probe(_without_pins())
+    v4, torch_kernels, pins = _probe(_without_pins())
+    # every pin is set in the process (on any x86-64 host), before numpy and torch read them
+    assert pins == "|".join(toolpath.CPU_PINS[k].replace(" ", "+") for k in sorted(toolpath.CPU_PINS))
     assert v4 == "False"  # numpy's AVX-512 dispatch off (on an AVX2 host it never was on)
     assert torch_kernels in ("AVX2", "DEFAULT")
 

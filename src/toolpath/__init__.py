@@ -11,9 +11,9 @@ __version__ = "0.1.0"
 
 # The same bytes on every x86-64 machine: numpy, torch (ATen, oneDNN, MKL) pick their kernels by the CPU's
 # instruction set, and their AVX-512 kernels round some results differently from the AVX2 ones (a seeded
-# gear program set differed by 31 bytes between an AVX2 host and an AVX-512 host, and with it the labels
-# and the split).  Every process that imports toolpath before numpy or torch runs the AVX2 kernels, unless
-# its environment sets these variables itself.
+# gear program set came out 31 bytes longer on an AVX-512 host than on an AVX2 host, and with it the
+# labels and the split changed).  Every process that imports toolpath before numpy or torch runs the AVX2
+# kernels, unless its environment sets these variables itself.
 CPU_PINS = {"NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR", "ATEN_CPU_CAPABILITY": "avx2",
             "ONEDNN_MAX_CPU_ISA": "AVX2", "MKL_CBWR": "AVX2"}
 if _platform.machine().lower() in ("x86_64", "amd64"):
